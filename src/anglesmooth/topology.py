@@ -49,7 +49,7 @@ Per-node tables
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -62,15 +62,30 @@ TRI_IDEAL = np.pi / 3
 QUAD_IDEAL = np.pi / 2
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Block:
-    """Slices of the per-node tables that belong to one update block."""
+    """One update block: slices of the per-node tables plus reduction offsets.
+
+    ``*_starts`` / ``*_has`` let ``np.minimum.reduceat`` reduce the incidence
+    rows of the block per node (``has`` is False for a node with no row of that
+    cell type); ``*_count`` are the number of rows per node.
+    """
 
     nodes: slice
     ring: slice
     spokes: slice
     tris: slice
     quads: slice
+    ring_count: np.ndarray
+    spoke_count: np.ndarray
+    tri_starts: np.ndarray
+    tri_has: np.ndarray
+    quad_starts: np.ndarray
+    quad_has: np.ndarray
+
+    @property
+    def size(self) -> int:
+        return self.nodes.stop - self.nodes.start
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,6 +122,7 @@ class Topology:
     tri_verts: np.ndarray
     quad_loc: np.ndarray
     quad_verts: np.ndarray
+    _cache: dict = field(default_factory=dict, repr=False)
 
     @property
     def n_tri(self) -> int:
@@ -129,7 +145,13 @@ class Topology:
         return int(self.block_offsets.shape[0] - 1)
 
     def blocks(self, order: str = "colour") -> list[Block]:
-        """Update blocks: one per colour class (``"colour"``) or all free nodes at once (``"jacobi"``)."""
+        """Update blocks: one per colour class (``"colour"``) or all free nodes at once (``"jacobi"``).
+
+        Computed once per topology and order, then cached.
+        """
+        cached = self._cache.get(("blocks", order))
+        if cached is not None:
+            return cached
         if order == "jacobi":
             offs = np.array([0, self.n_free], dtype=np.int64)
         elif order == "colour":
@@ -139,20 +161,38 @@ class Topology:
         out = []
         for k in range(offs.shape[0] - 1):
             a, b = int(offs[k]), int(offs[k + 1])
+            ring, spokes = _span(self.ring_loc, a, b), _span(self.spoke_loc, a, b)
+            tris, quads = _span(self.tri_loc, a, b), _span(self.quad_loc, a, b)
+            ts, th = _starts(self.tri_loc[tris] - a, b - a)
+            qs, qh = _starts(self.quad_loc[quads] - a, b - a)
             out.append(
                 Block(
                     nodes=slice(a, b),
-                    ring=_span(self.ring_loc, a, b),
-                    spokes=_span(self.spoke_loc, a, b),
-                    tris=_span(self.tri_loc, a, b),
-                    quads=_span(self.quad_loc, a, b),
+                    ring=ring,
+                    spokes=spokes,
+                    tris=tris,
+                    quads=quads,
+                    ring_count=np.bincount(self.ring_loc[ring] - a, minlength=b - a),
+                    spoke_count=np.bincount(self.spoke_loc[spokes] - a, minlength=b - a),
+                    tri_starts=ts,
+                    tri_has=th,
+                    quad_starts=qs,
+                    quad_has=qh,
                 )
             )
+        self._cache[("blocks", order)] = out
         return out
 
     def ring(self, node: int) -> np.ndarray:
         """Edge neighbours of one node (sorted)."""
         return self.ring_indices[self.ring_offsets[node] : self.ring_offsets[node + 1]]
+
+
+def _starts(rel: np.ndarray, n: int):
+    """reduceat offsets of sorted row owners ``rel`` (0..n-1) and which owners have rows."""
+    starts = np.searchsorted(rel, np.arange(n))
+    has = np.bincount(rel, minlength=n) > 0
+    return starts[has], has
 
 
 def _span(sorted_loc: np.ndarray, a: int, b: int) -> slice:
