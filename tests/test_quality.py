@@ -111,7 +111,7 @@ def test_clockwise_mesh_is_not_inverted():
 
 
 def test_degenerate_cells_and_json_safety():
-    # a zero-area triangle (collinear) and a quad with a repeated node
+    # a triangle collapsed to zero area (nodes 2 and 5 are unused: they only widen the bounding box)
     pts = np.array([[0, 0], [1, 0], [2, 0], [0, 1], [1, 1], [3, 3]], float)
     tris = [[0, 1, 4], [0, 4, 3]]
     _, topo = topo_of(pts, triangles=tris)
