@@ -337,20 +337,16 @@ def test_inverted_quad_scaled_jacobian_vs_vtk():
     np.testing.assert_allclose(ours[0], theirs[0], rtol=1e-12)
 
 
-# --------------------------------------------------------------------------- speed
+# --------------------------------------------------------------------------- larger mesh (speed is measured in benchmarks/, never asserted here)
 
 
-def test_summarize_is_fast_on_large_mesh():
-    import time
-
-    n = 300  # 2 * 300^2 = 180k triangles: keep the suite quick; the 1M case is in the report note
+def test_summarize_on_larger_structured_mesh():
+    n = 300  # 2 * 300^2 = 180k triangles
     x, y = np.meshgrid(np.linspace(0, 1, n + 1), np.linspace(0, 1, n + 1))
     pts = np.c_[x.ravel(), y.ravel()]
     i, j = np.meshgrid(np.arange(n), np.arange(n))
     n0 = (j * (n + 1) + i).ravel()
     tris = np.concatenate([np.c_[n0, n0 + 1, n0 + n + 2], np.c_[n0, n0 + n + 2, n0 + n + 1]])
     p, topo = topo_of(pts, triangles=tris)
-    t0 = time.perf_counter()
     s = q.summarize(p, topo)
-    assert time.perf_counter() - t0 < 1.0
     assert s["triangles"] == 2 * n * n and s["min_angle"] == pytest.approx(45.0)
