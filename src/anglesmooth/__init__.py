@@ -1,2 +1,77 @@
-"""anglesmooth: angle-based smoothing of 2D finite-element meshes."""
+"""anglesmooth: angle-based smoothing of 2D finite-element meshes (Zhou & Shimada 2000).
+
+The public API::
+
+    import anglesmooth
+    mesh = anglesmooth.read("in.msh")                 # Mesh2D
+    result = anglesmooth.smooth(mesh, "angle", passes=10)
+    anglesmooth.write(mesh, "out.vtu", points=result.points)
+    anglesmooth.summarize(result.points, result.topology)["min_angle"]
+
+meshio is imported only when :func:`read` or :func:`write` is called.
+
+>>> import numpy as np
+>>> mesh = Mesh2D.from_arrays([[0, 0], [2, 0], [2, 2], [0, 2], [0.3, 0.4]],
+...                           triangles=[[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
+>>> result = smooth(mesh, "laplacian", passes=1)
+>>> result.points[4].tolist()
+[1.0, 1.0]
+>>> sorted(SMOOTHERS) == sorted(["angle", "laplacian", "smart-laplacian", "optimization"])
+True
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
 from .__about__ import __version__
+from .driver import SmoothResult, smooth
+from .errors import (
+    AngleSmoothError,
+    InvalidMeshError,
+    MeshReadError,
+    MeshWriteError,
+    UnknownMethodError,
+    UnsupportedMeshError,
+)
+from .mesh import Mesh2D
+from .quality import summarize
+from .smoothers import SMOOTHERS
+from .topology import Topology, build_topology
+
+if TYPE_CHECKING:  # pragma: no cover
+    import numpy as np
+
+__all__ = [
+    "SMOOTHERS",
+    "AngleSmoothError",
+    "InvalidMeshError",
+    "Mesh2D",
+    "MeshReadError",
+    "MeshWriteError",
+    "SmoothResult",
+    "Topology",
+    "UnknownMethodError",
+    "UnsupportedMeshError",
+    "__version__",
+    "build_topology",
+    "read",
+    "smooth",
+    "summarize",
+    "write",
+]
+
+
+def read(path: str | Path, *, file_format: str | None = None) -> Mesh2D:
+    """Read a mesh file into a :class:`Mesh2D` (see :func:`anglesmooth.io.read`)."""
+    from .io import read as _read
+
+    return _read(path, file_format=file_format)
+
+
+def write(mesh: Mesh2D, path: str | Path, *, points: np.ndarray | None = None, file_format: str | None = None) -> None:
+    """Write ``mesh`` (optionally with new ``points``) atomically (see :func:`anglesmooth.io.write`)."""
+    from .io import write as _write
+
+    _write(mesh, path, points=points, file_format=file_format)
