@@ -16,8 +16,10 @@ The paper's rule, as implemented (``guard=False``)
     node, where the quad angle is split by the diagonal (45:45).  The new
     position of i is the mean of the rotated positions over the whole ring.
 
-    Interpretations where the paper is terse: the angles are measured
-    counter-clockwise (so the rule is defined on tangled input too); the
+    Interpretations where the paper is terse: the two angles beside a spoke
+    are measured inside the counter-clockwise sweep from a to b about j, so a
+    spoke lying outside it (a non-convex or inverted corner) is rotated back
+    into it, which untangles rather than equalizing two reflex angles; the
     bisector of an equal split is computed from unit vectors,
     ``normalize(rot90(u_a - u_b))``, the "more efficient way" the paper
     mentions in Section 5.2, exact and free of trigonometry; nodes are updated
@@ -40,9 +42,11 @@ The robust default (``guard=True``)
     the half step (C+A)/2 and its current position C -- the one whose incident
     cells have the largest minimum angle and no inverted, degenerate or
     non-convex cell.  Then the worst ``opt_fraction`` of the class's nodes
-    (lowest local minimum angle) take ``opt_iterations`` steps of the local
-    max-min-angle optimization (see :mod:`.optimization`): the hybrid of
-    Freitag (1997) and Canann, Tristano & Staten (1998).  Since C is always a
+    (lowest local score) take ``opt_iterations`` steps of the local
+    max-min-angle optimization (see :mod:`.optimization`), constrained so that
+    no incident cell shrinks below 0.8 or grows beyond 1/0.8 of its area: the
+    hybrid of Freitag (1997) and Canann, Tristano & Staten (1998).  The score
+    of a quad corner is ``min(angle, 180 - angle)`` (see :mod:`._local`).  Since C is always a
     candidate, the local minimum angle of a node never decreases, so neither
     does the mesh's minimum angle, and no cell is ever inverted.
 
@@ -52,7 +56,7 @@ The robust default (``guard=True``)
 >>> m = structured_triangles(6, 6)
 >>> topo = build_topology(m)
 >>> p = m.points.copy(); i = topo.free_nodes[0]; p[i] += 0.2
->>> for _ in range(30):
+>>> for _ in range(100):
 ...     p = step(p, topo, guard=False).points
 >>> bool(np.allclose(p, m.points, atol=1e-6))   # the displaced node returns
 True
@@ -79,6 +83,8 @@ def step(
     hybrid: bool = True,
     opt_fraction: float = 0.05,
     opt_iterations: int = 3,
+    area_band: float | None = 0.8,
+    opt_below: float = 40.0,
 ) -> StepResult:
     """One angle-based pass.
 
@@ -90,8 +96,16 @@ def step(
     hybrid : bool
         With ``guard``: choose among candidates and optimize the worst nodes
         (default).  False: only halve/refuse moves that would invalidate a cell.
-    opt_fraction, opt_iterations : float, int
-        Share of each colour class that gets local optimization, and its steps.
+    opt_fraction, opt_iterations, opt_below : float, int, float
+        Share of each colour class that gets local optimization, its number of
+        steps, and the local quality (degrees) a node must be below to get it:
+        optimizing nodes that are already good only moves them along plateaus
+        of the max-min objective (sheared quads) and keeps a disturbed regular
+        mesh from returning to its place.
+    area_band : float or None
+        During that optimization a node's smallest incident cell keeps at least
+        ``area_band`` of its area and its largest grows at most ``1/area_band``
+        (see :func:`._local.optimize`); None lets the angle alone decide.
     """
 
     def update(pts, blk, cur):
@@ -112,10 +126,11 @@ def step(
         n_opt = int(np.ceil(opt_fraction * blk.size)) if opt_iterations > 0 else 0
         if n_opt:
             worst = np.argpartition(best, n_opt - 1)[:n_opt] if n_opt < blk.size else idx
-            sub = BlockGeometry(pts, topo, blk, subset=np.sort(worst))
-            worst = np.sort(worst)
+            worst = np.sort(worst[best[worst] < -np.cos(np.radians(opt_below))])
+        if n_opt and worst.size:
+            sub = BlockGeometry(pts, topo, blk, subset=worst)
             scale = local_scale(pts, topo, blk)[worst]
-            new[worst], _ = optimize(sub, new[worst], scale, opt_iterations)
+            new[worst], _ = optimize(sub, new[worst], scale, opt_iterations, area_band=area_band)
         return new, refused
 
     return run_blocks(points, topo, order, update)
