@@ -8,7 +8,7 @@ stdout).
 >>> after = {"min_angle": 25.5, "inverted": 0}
 >>> change(before["min_angle"], after["min_angle"], +1)
 ('+15.50', 'green')
->>> change(2, 0, -1)
+>>> change(2, 0, -1, "int")
 ('-2', 'green')
 >>> to_json({"a": float("inf"), "b": [1.5, float("nan")]})
 '{\\n  "a": null,\\n  "b": [\\n    1.5,\\n    null\\n  ]\\n}'
