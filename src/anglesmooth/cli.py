@@ -119,6 +119,11 @@ def _suffix(fmt: str) -> str:
     return _SUFFIX.get(fmt, "." + fmt.split("-")[0])
 
 
+def _binary(stream):
+    """The byte stream under a text stream (click's CliRunner swaps sys.stdin/stdout too)."""
+    return getattr(stream, "buffer", stream)
+
+
 def _retarget(exc: AngleSmoothError, tmp: Path, name: str) -> AngleSmoothError:
     new = type(exc)(str(exc).replace(str(tmp), name))
     new.exit_code = getattr(exc, "exit_code", EXIT_INPUT)
@@ -134,7 +139,7 @@ def read_mesh(path: str, file_format: str | None):
             return mesh_io.read(path, file_format=file_format)
     if not file_format:
         raise _Usage("reading from stdin ('-') needs --input-format (e.g. --input-format gmsh)")
-    data = click.get_binary_stream("stdin").read()
+    data = _binary(sys.stdin).read()
     with tempfile.TemporaryDirectory(prefix="anglesmooth-") as tmpdir:
         tmp = Path(tmpdir) / ("stdin" + _suffix(file_format))
         tmp.write_bytes(data)
@@ -160,7 +165,7 @@ def write_mesh(mesh, path: str, points: np.ndarray, file_format: str | None) -> 
                 mesh_io.write(mesh, tmp, points=points, file_format=file_format)
         except AngleSmoothError as exc:
             raise _retarget(exc, tmp, "<stdout>") from None
-        out = click.get_binary_stream("stdout")
+        out = _binary(sys.stdout)
         out.write(tmp.read_bytes())
         out.flush()
 
