@@ -94,10 +94,12 @@ def plot_smooth(path: str | Path, topo: Topology, before: np.ndarray, after: np.
     """
     from matplotlib.colors import Normalize
 
-    fig = _figure(12, 10)
+    span = np.ptp(np.vstack([before, after]), axis=0) if before.shape[0] else np.ones(2)
+    mesh_h = float(np.clip(5.2 * span[1] / span[0], 2.0, 7.0)) if span[0] > 0 else 5.0
+    fig = _figure(12, mesh_h + 4.5)
     if title:
         fig.suptitle(title)
-    grid = fig.add_gridspec(2, 2, height_ratios=[3, 2])
+    grid = fig.add_gridspec(2, 2, height_ratios=[mesh_h, 4.0])
     ideal = 90.0 if topo.n_quad else 60.0
     norm = Normalize(vmin=0.0, vmax=ideal)
     cmap = "RdYlGn"
