@@ -509,14 +509,29 @@ def test_console_script(meshes, tmp_path):
     assert b"gate min_angle failed" in proc.stderr
 
 
-def test_sigterm_leaves_no_output(tmp_path):
+def _wait_for_sigterm_handler(pid: int, timeout: float = 60.0) -> None:
+    """Wait until the CLI has installed its SIGTERM handler (Linux: SigCgt in /proc), else a few seconds."""
+    status = f"/proc/{pid}/status"
+    deadline = time.monotonic() + timeout
+    while os.path.exists(status) and time.monotonic() < deadline:
+        with open(status) as fh:
+            caught = next((line.split()[1] for line in fh if line.startswith("SigCgt:")), "0")
+        if int(caught, 16) & (1 << (signal.SIGTERM - 1)):
+            time.sleep(0.5)
+            return
+        time.sleep(0.05)
+    time.sleep(3.0)
+
+
+@pytest.mark.parametrize("sig,code,message", [(signal.SIGTERM, 143, "terminated"), (signal.SIGINT, 130, "interrupted")])
+def test_signal_leaves_no_output(tmp_path, sig, code, message):
     src, out = tmp_path / "big.vtu", tmp_path / "o.vtu"
     write(random_delaunay(20_000, seed=3), src)
     proc = subprocess.Popen([sys.executable, "-m", "anglesmooth", str(src), str(out), "--passes", "1000000"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    time.sleep(3.0)
-    proc.send_signal(signal.SIGTERM)
+    _wait_for_sigterm_handler(proc.pid)
+    proc.send_signal(sig)
     stdout, stderr = proc.communicate(timeout=60)
-    assert proc.returncode == 143, stderr
-    assert stderr.decode().strip() == "anglesmooth: error: terminated"
+    assert proc.returncode == code, stderr
+    assert stderr.decode().strip() == f"anglesmooth: error: {message}" and stdout == b""
     assert sorted(os.listdir(tmp_path)) == ["big.vtu"]
