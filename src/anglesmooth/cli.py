@@ -29,7 +29,7 @@ from rich.console import Console
 from . import report
 from .__about__ import __version__
 from .driver import smooth as run_smooth
-from .errors import AngleSmoothError, MeshWriteError
+from .errors import AngleSmoothError, GateFileError, MeshWriteError
 from .gates import Gate, evaluate, resolve_thresholds
 from .quality import cell_areas, cell_min_angles, summarize
 from .smoothers import SMOOTHERS
@@ -247,7 +247,7 @@ def _thresholds(gate_opts: dict) -> tuple[dict, bool]:
     gate_file = gate_opts.pop("gate_file", None)
     try:
         return resolve_thresholds(gate_opts, gate_file), exit_zero
-    except AngleSmoothError as exc:
+    except GateFileError as exc:
         raise _Usage(str(exc)) from None
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 __all__ = [
     "AngleSmoothError",
+    "GateFileError",
     "InvalidMeshError",
     "MeshReadError",
     "MeshWriteError",
@@ -41,5 +42,11 @@ class InvalidMeshError(AngleSmoothError):
 
 class UnknownMethodError(AngleSmoothError):
     """A smoothing method name that is not in the registry."""
+
+    exit_code = 2
+
+
+class GateFileError(AngleSmoothError):
+    """A quality-gate file that cannot be used (unreadable, invalid TOML, unknown key, bad value)."""
 
     exit_code = 2

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .errors import AngleSmoothError
+from .errors import GateFileError
 
 __all__ = ["GATES", "Gate", "evaluate", "load_gate_file", "resolve_thresholds"]
 
@@ -126,7 +126,7 @@ def _toml_loads(text: str) -> dict:
 def load_gate_file(path: str | Path) -> dict[str, float]:
     """Read thresholds from a TOML gate file.
 
-    Raises :class:`~anglesmooth.errors.AngleSmoothError` naming the problem when
+    Raises :class:`~anglesmooth.errors.GateFileError` (exit code 2) naming the problem when
     the file cannot be read, is not TOML, has an unknown key, or a value that is
     not a number (the command line reports it as a usage error, exit 2).
     """
@@ -134,22 +134,22 @@ def load_gate_file(path: str | Path) -> dict[str, float]:
     try:
         data = _toml_loads(path.read_text(encoding="utf-8"))
     except OSError as exc:
-        raise AngleSmoothError(f"cannot read gate file '{path}': {exc.strerror or exc}") from None
+        raise GateFileError(f"cannot read gate file '{path}': {exc.strerror or exc}") from None
     except UnicodeDecodeError:
-        raise AngleSmoothError(f"gate file '{path}' is not UTF-8 text") from None
+        raise GateFileError(f"gate file '{path}' is not UTF-8 text") from None
     except ValueError as exc:  # tomllib.TOMLDecodeError
-        raise AngleSmoothError(f"gate file '{path}' is not valid TOML: {exc}") from None
+        raise GateFileError(f"gate file '{path}' is not valid TOML: {exc}") from None
     table = data.get("tool", {}).get("anglesmooth", {}).get("gates") if isinstance(data.get("tool"), dict) else None
     if table is None:
         table = data["gates"] if isinstance(data.get("gates"), dict) else data
     out: dict[str, float] = {}
     for key, value in table.items():
         if key not in GATES:
-            raise AngleSmoothError(f"gate file '{path}': unknown key {key!r} (valid keys: {', '.join(GATES)})")
+            raise GateFileError(f"gate file '{path}': unknown key {key!r} (valid keys: {', '.join(GATES)})")
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise AngleSmoothError(f"gate file '{path}': {key} must be a finite number, got {value!r}")
+            raise GateFileError(f"gate file '{path}': {key} must be a finite number, got {value!r}")
         if key == "max_inverted" and (value < 0 or not float(value).is_integer()):
-            raise AngleSmoothError(f"gate file '{path}': max_inverted must be a non-negative integer")
+            raise GateFileError(f"gate file '{path}': max_inverted must be a non-negative integer")
         out[key] = value
     return out
 
