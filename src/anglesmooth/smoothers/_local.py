@@ -41,6 +41,71 @@ def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return u[..., 0] * v[..., 0] + u[..., 1] * v[..., 1]
 
 
+_CHUNK = 16384  # rows per kernel call: the temporaries of one call stay in the L2 cache
+
+
+class _Rows:
+    """Rows (incident cells) of the block's nodes, grouped by the number of rows per node.
+
+    ``perm`` reorders the input rows so that the nodes with ``d`` rows are
+    contiguous (in node order, each node's rows in their original order); the
+    rows of such a group then reshape to (nodes, d) and reduce per node with
+    ``d - 1`` vectorized minimums instead of a ``reduceat`` (which pays per
+    segment).  ``chunks`` are (r0, r1, nodes, d) over the reordered rows, at
+    most about ``_CHUNK`` rows each.
+    """
+
+    def __init__(self, rel: np.ndarray, n: int):
+        counts = np.bincount(rel, minlength=n)
+        if rel.shape[0] and np.all(rel[1:] >= rel[:-1]):
+            offs = np.cumsum(counts) - counts
+            nodes = np.argsort(counts, kind="stable")
+            nodes = nodes[counts[nodes] > 0]
+            c = counts[nodes]
+            self.perm = np.repeat(offs[nodes] - (np.cumsum(c) - c), c) + np.arange(rel.shape[0])
+        else:
+            self.perm = np.lexsort((rel, counts[rel]))
+            first = np.ones(rel.shape[0], bool)
+            first[1:] = rel[self.perm][1:] != rel[self.perm][:-1]
+            nodes = rel[self.perm][first]
+            c = counts[nodes]
+        self.chunks = []
+        bounds = np.concatenate([[0], np.flatnonzero(np.diff(c)) + 1, [c.shape[0]]]).tolist()
+        r = 0
+        for g0, g1 in zip(bounds[:-1], bounds[1:]):
+            if g1 <= g0:
+                continue
+            d = int(c[g0])
+            step = max(1, _CHUNK // d)
+            for k0 in range(g0, g1, step):
+                k1 = min(k0 + step, g1)
+                self.chunks.append((r, r + (k1 - k0) * d, nodes[k0:k1], d))
+                r += (k1 - k0) * d
+
+
+def _rowmin(vals: np.ndarray, d: int) -> np.ndarray:
+    """Minimum of every ``d`` consecutive values."""
+    w = vals.reshape(-1, d)
+    out = w[:, 0].copy()
+    for j in range(1, d):
+        np.minimum(out, w[:, j], out=out)
+    return out
+
+
+def _rowmax(vals: np.ndarray, d: int) -> np.ndarray:
+    w = vals.reshape(-1, d)
+    out = w[:, 0].copy()
+    for j in range(1, d):
+        np.maximum(out, w[:, j], out=out)
+    return out
+
+
+def _reduce_chunk(best, bad, rel_chunk, nodes, d, vals, ok):
+    best[nodes] = np.minimum(best[nodes], _rowmin(vals, d))
+    if not ok.all():
+        bad += np.bincount(rel_chunk[~ok], minlength=bad.shape[0])
+
+
 class BlockGeometry:
     """The fixed part of a block's incident cells, gathered once per block update.
 
@@ -49,6 +114,10 @@ class BlockGeometry:
     points : (N, 2) current coordinates (the block's own nodes are ignored)
     topo, blk : the topology and one of its blocks
     subset : optional int array of block-local node indices to restrict to
+
+    Every per-row quantity is stored as separate contiguous x / y arrays and
+    the score is evaluated one candidate and one chunk of rows at a time, so
+    that the numpy temporaries stay in cache.
     """
 
     def __init__(self, points: np.ndarray, topo: Topology, blk: Block, subset: np.ndarray | None = None):
@@ -66,98 +135,143 @@ class BlockGeometry:
             keep = remap[q_rel] >= 0
             q_rel, q_v = remap[q_rel[keep]], q_v[keep]
             n = subset.shape[0]
-            self.t_starts, self.t_has = _starts(t_rel, n)
-            self.q_starts, self.q_has = _starts(q_rel, n)
-        else:
-            self.t_starts, self.t_has = blk.tri_starts, blk.tri_has
-            self.q_starts, self.q_has = blk.quad_starts, blk.quad_has
         self.n = n
-        self.t_rel, self.q_rel = t_rel, q_rel
-        # triangles (p0 moving, p1, p2 fixed)
-        self.t_p1 = points[t_v[:, 1]]
-        self.t_p2 = points[t_v[:, 2]]
-        e12 = self.t_p2 - self.t_p1
-        self.t_e12 = e12
-        self.t_l12 = _norm(e12)
-        # quads (p0 moving; p1, p2, p3 fixed); corner 2 does not depend on p0
-        self.q_p1 = points[q_v[:, 1]]
-        self.q_p3 = points[q_v[:, 3]]
-        p2 = points[q_v[:, 2]]
-        self.q_e12 = p2 - self.q_p1
-        self.q_e23 = self.q_p3 - p2
-        self.q_l12 = _norm(self.q_e12)
-        self.q_l23 = _norm(self.q_e23)
-        c2 = _cross(self.q_e23, -self.q_e12)
+        self._t, self._q = _Rows(t_rel, n), _Rows(q_rel, n)
+        self.t_rel, t_v = t_rel[self._t.perm], np.take(t_v, self._t.perm, axis=0)
+        self.q_rel, q_v = q_rel[self._q.perm], np.take(q_v, self._q.perm, axis=0)
+        px, py = points[:, 0], points[:, 1]
         with np.errstate(divide="ignore", invalid="ignore"):
-            cos2 = _dot(self.q_e23, -self.q_e12) / (self.q_l23 * self.q_l12)
+            # triangles (p0 moving, p1, p2 fixed)
+            i1, i2 = t_v[:, 1], t_v[:, 2]
+            self.t_x1, self.t_y1 = np.take(px, i1), np.take(py, i1)
+            self.t_x2, self.t_y2 = np.take(px, i2), np.take(py, i2)
+            self.t_ux = self.t_x2 - self.t_x1  # e12 = p2 - p1
+            self.t_uy = self.t_y2 - self.t_y1
+            self.t_l12 = np.sqrt(self.t_ux * self.t_ux + self.t_uy * self.t_uy)
+            # quads (p0 moving; p1, p2, p3 fixed); corner 2 does not depend on p0
+            i1, i2, i3 = q_v[:, 1], q_v[:, 2], q_v[:, 3]
+            self.q_x1, self.q_y1 = np.take(px, i1), np.take(py, i1)
+            self.q_x3, self.q_y3 = np.take(px, i3), np.take(py, i3)
+            x2, y2 = np.take(px, i2), np.take(py, i2)
+            self.q_ux, self.q_uy = x2 - self.q_x1, y2 - self.q_y1  # e12
+            self.q_vx, self.q_vy = self.q_x3 - x2, self.q_y3 - y2  # e23
+            self.q_l12 = np.sqrt(self.q_ux * self.q_ux + self.q_uy * self.q_uy)
+            self.q_l23 = np.sqrt(self.q_vx * self.q_vx + self.q_vy * self.q_vy)
+            # corner 2: angle between e23 and -e12
+            c2 = self.q_vx * -self.q_uy - self.q_vy * -self.q_ux
+            cos2 = (self.q_vx * -self.q_ux + self.q_vy * -self.q_uy) / (self.q_l23 * self.q_l12)
         self.q_ok2 = (c2 > 0) & np.isfinite(cos2)
         self.q_cos2 = np.where(self.q_ok2, np.abs(cos2), 1.0)
 
+    _TRI = ("t_x1", "t_y1", "t_x2", "t_y2", "t_ux", "t_uy", "t_l12")
+    _QUAD = ("q_x1", "q_y1", "q_x3", "q_y3", "q_ux", "q_uy", "q_vx", "q_vy", "q_l12", "q_l23", "q_ok2", "q_cos2")
+
+    def restrict(self, subset: np.ndarray) -> BlockGeometry:
+        """The same geometry for the (sorted) node indices ``subset`` only, without gathering again."""
+        remap = np.full(self.n, -1, np.int64)
+        remap[subset] = np.arange(subset.shape[0])
+        g = object.__new__(BlockGeometry)
+        g.n = subset.shape[0]
+        for rel_name, rows_name, names in (("t_rel", "_t", self._TRI), ("q_rel", "_q", self._QUAD)):
+            rel = remap[getattr(self, rel_name)]
+            keep = np.flatnonzero(rel >= 0)
+            rows = _Rows(rel[keep], g.n)
+            keep = keep[rows.perm]
+            setattr(g, rows_name, rows)
+            setattr(g, rel_name, rel[keep])
+            for name in names:
+                setattr(g, name, getattr(self, name)[keep])
+        return g
+
     def score(self, X: np.ndarray) -> np.ndarray:
         """Local score of every node at candidate positions ``X`` (..., n, 2) -> (..., n)."""
+        X = np.asarray(X, dtype=np.float64)
         lead = X.shape[:-2]
-        best = np.full(lead + (self.n,), np.inf)
-        bad = np.zeros(lead + (self.n,))
+        Xf = X.reshape((-1, self.n, 2))
+        out = np.empty((Xf.shape[0], self.n))
         with np.errstate(divide="ignore", invalid="ignore"):
-            if self.t_rel.shape[0]:
-                p0 = X[..., self.t_rel, :]
-                e1 = self.t_p1 - p0
-                e2 = self.t_p2 - p0
-                l1, l2 = _norm(e1), _norm(e2)
-                c = _cross(e1, e2)
-                cmax = np.maximum(
-                    _dot(e1, e2) / (l1 * l2),
-                    np.maximum(-_dot(self.t_e12, e1) / (self.t_l12 * l1), _dot(e2, self.t_e12) / (l2 * self.t_l12)),
-                )
-                ok = (c > 0) & np.isfinite(cmax)
-                self._reduce(best, bad, np.where(ok, -cmax, np.inf), ~ok, self.t_rel, self.t_starts, self.t_has)
-            if self.q_rel.shape[0]:
-                p0 = X[..., self.q_rel, :]
-                e1 = self.q_p1 - p0
-                e3 = self.q_p3 - p0
-                l1, l3 = _norm(e1), _norm(e3)
-                c0 = _cross(e1, e3)
-                c1 = _cross(self.q_e12, -e1)
-                c3 = _cross(e3, self.q_e23)
-                cmax = np.maximum(
-                    np.maximum(np.abs(_dot(e1, e3) / (l1 * l3)), np.abs(_dot(self.q_e12, e1) / (self.q_l12 * l1))),
-                    np.maximum(np.abs(_dot(e3, self.q_e23) / (l3 * self.q_l23)), self.q_cos2),
-                )
-                ok = (c0 > 0) & (c1 > 0) & (c3 > 0) & self.q_ok2 & np.isfinite(cmax)
-                self._reduce(best, bad, np.where(ok, -cmax, np.inf), ~ok, self.q_rel, self.q_starts, self.q_has)
-        return np.where(bad > 0, INVALID - bad, best)
+            for k in range(Xf.shape[0]):
+                x0, y0 = np.ascontiguousarray(Xf[k, :, 0]), np.ascontiguousarray(Xf[k, :, 1])
+                best = np.full(self.n, np.inf)
+                bad = np.zeros(self.n)
+                for r0, r1, nodes, d in self._t.chunks:
+                    vals, ok = self._tri_chunk(np.repeat(x0[nodes], d), np.repeat(y0[nodes], d), r0, r1)
+                    _reduce_chunk(best, bad, self.t_rel[r0:r1], nodes, d, vals, ok)
+                for r0, r1, nodes, d in self._q.chunks:
+                    vals, ok = self._quad_chunk(np.repeat(x0[nodes], d), np.repeat(y0[nodes], d), r0, r1)
+                    _reduce_chunk(best, bad, self.q_rel[r0:r1], nodes, d, vals, ok)
+                out[k] = np.where(bad > 0, INVALID - bad, best)
+        return out.reshape(lead + (self.n,))
+
+    def _tri_chunk(self, px, py, r0, r1):
+        """(-max cos of the three corners, valid) for triangle rows r0:r1."""
+        ux, uy, l12 = self.t_ux[r0:r1], self.t_uy[r0:r1], self.t_l12[r0:r1]
+        ex1 = self.t_x1[r0:r1] - px
+        ey1 = self.t_y1[r0:r1] - py
+        ex2 = self.t_x2[r0:r1] - px
+        ey2 = self.t_y2[r0:r1] - py
+        l1 = np.sqrt(ex1 * ex1 + ey1 * ey1)
+        l2 = np.sqrt(ex2 * ex2 + ey2 * ey2)
+        ok = ex1 * ey2 - ey1 * ex2 > 0
+        cm = (ex1 * ex2 + ey1 * ey2) / (l1 * l2)
+        c1 = -(ux * ex1 + uy * ey1) / (l12 * l1)
+        np.maximum(c1, (ex2 * ux + ey2 * uy) / (l2 * l12), out=c1)
+        np.maximum(cm, c1, out=cm)
+        ok &= np.isfinite(cm)
+        np.negative(cm, out=cm)
+        cm[~ok] = np.inf
+        return cm, ok
+
+    def _quad_chunk(self, px, py, r0, r1):
+        """(-max |cos| of the four corners, valid) for quad rows r0:r1."""
+        ux, uy, l12 = self.q_ux[r0:r1], self.q_uy[r0:r1], self.q_l12[r0:r1]
+        vx, vy, l23 = self.q_vx[r0:r1], self.q_vy[r0:r1], self.q_l23[r0:r1]
+        ex1 = self.q_x1[r0:r1] - px
+        ey1 = self.q_y1[r0:r1] - py
+        ex3 = self.q_x3[r0:r1] - px
+        ey3 = self.q_y3[r0:r1] - py
+        l1 = np.sqrt(ex1 * ex1 + ey1 * ey1)
+        l3 = np.sqrt(ex3 * ex3 + ey3 * ey3)
+        ok = ex1 * ey3 - ey1 * ex3 > 0
+        ok &= uy * ex1 - ux * ey1 > 0  # corner 1: e12 x (-e1)
+        ok &= ex3 * vy - ey3 * vx > 0  # corner 3: e3 x e23
+        ok &= self.q_ok2[r0:r1]
+        cm = np.abs((ex1 * ex3 + ey1 * ey3) / (l1 * l3))
+        np.maximum(cm, np.abs((ux * ex1 + uy * ey1) / (l12 * l1)), out=cm)
+        c3 = np.abs((ex3 * vx + ey3 * vy) / (l3 * l23))
+        np.maximum(c3, self.q_cos2[r0:r1], out=c3)
+        np.maximum(cm, c3, out=cm)
+        ok &= np.isfinite(cm)
+        np.negative(cm, out=cm)
+        cm[~ok] = np.inf
+        return cm, ok
 
     def area_range(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Smallest and largest signed area of each node's incident cells at positions ``X`` (..., n, 2)."""
+        X = np.asarray(X, dtype=np.float64)
         lead = X.shape[:-2]
-        lo = np.full(lead + (self.n,), np.inf)
-        hi = np.full(lead + (self.n,), -np.inf)
-        for rel, starts, has, area in self._areas(X):
-            if starts.shape[0]:
-                lo[..., has] = np.minimum(lo[..., has], np.minimum.reduceat(area, starts, axis=-1))
-                hi[..., has] = np.maximum(hi[..., has], np.maximum.reduceat(area, starts, axis=-1))
-        return lo, hi
+        Xf = X.reshape((-1, self.n, 2))
+        lo = np.full((Xf.shape[0], self.n), np.inf)
+        hi = np.full((Xf.shape[0], self.n), -np.inf)
+        for k in range(Xf.shape[0]):
+            x0, y0 = np.ascontiguousarray(Xf[k, :, 0]), np.ascontiguousarray(Xf[k, :, 1])
+            for rows, area in ((self._t, self._tri_area), (self._q, self._quad_area)):
+                for r0, r1, nodes, d in rows.chunks:
+                    ar = area(np.repeat(x0[nodes], d), np.repeat(y0[nodes], d), r0, r1)
+                    lo[k, nodes] = np.minimum(lo[k, nodes], _rowmin(ar, d))
+                    hi[k, nodes] = np.maximum(hi[k, nodes], _rowmax(ar, d))
+        return lo.reshape(lead + (self.n,)), hi.reshape(lead + (self.n,))
 
-    def _areas(self, X):
-        if self.t_rel.shape[0]:
-            p0 = X[..., self.t_rel, :]
-            yield self.t_rel, self.t_starts, self.t_has, 0.5 * _cross(self.t_p1 - p0, self.t_p2 - p0)
-        if self.q_rel.shape[0]:
-            p0 = X[..., self.q_rel, :]
-            p2 = self.q_p1 + self.q_e12
-            yield self.q_rel, self.q_starts, self.q_has, 0.5 * _cross(p2 - p0, self.q_p3 - self.q_p1)
+    def _tri_area(self, px, py, r0, r1):
+        ex1, ey1 = self.t_x1[r0:r1] - px, self.t_y1[r0:r1] - py
+        ex2, ey2 = self.t_x2[r0:r1] - px, self.t_y2[r0:r1] - py
+        return 0.5 * (ex1 * ey2 - ey1 * ex2)
 
-    def _reduce(self, best, bad, vals, invalid, rel, starts, has):
-        if not starts.shape[0]:
-            return
-        best[..., has] = np.minimum(best[..., has], np.minimum.reduceat(vals, starts, axis=-1))
-        bad[..., has] += np.add.reduceat(invalid.astype(np.float64), starts, axis=-1)
-
-
-def _starts(rel: np.ndarray, n: int):
-    starts = np.searchsorted(rel, np.arange(n))
-    has = np.bincount(rel, minlength=n) > 0
-    return starts[has], has
+    def _quad_area(self, px, py, r0, r1):
+        x1, y1 = self.q_x1[r0:r1], self.q_y1[r0:r1]
+        dx, dy = x1 + self.q_ux[r0:r1] - px, y1 + self.q_uy[r0:r1] - py  # p2 - p0
+        fx, fy = self.q_x3[r0:r1] - x1, self.q_y3[r0:r1] - y1  # p3 - p1
+        return 0.5 * (dx * fy - dy * fx)
 
 
 # --------------------------------------------------------------------------
@@ -168,12 +282,13 @@ def laplacian_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarr
     """Centroid of the edge neighbours of each block node, (n, 2)."""
     a = blk.nodes.start
     rel = topo.ring_loc[blk.ring] - a
-    nb = points[topo.ring_nbr[blk.ring]]
+    nb = np.take(points, topo.ring_nbr[blk.ring], axis=0)
     n = blk.size
     out = np.empty((n, 2))
     out[:, 0] = np.bincount(rel, weights=nb[:, 0], minlength=n)
     out[:, 1] = np.bincount(rel, weights=nb[:, 1], minlength=n)
-    return out / blk.ring_count[:, None]
+    out /= blk.ring_count[:, None]
+    return out
 
 
 def angle_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
@@ -189,45 +304,71 @@ def angle_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
     a0 = blk.nodes.start
     sl = blk.spokes
     rel = topo.spoke_loc[sl] - a0
-    centre = points[topo.free_nodes[topo.spoke_loc[sl]]]
-    pj = points[topo.spoke_ring[sl]]
-    ua = points[topo.spoke_a[sl]] - pj
-    ub = points[topo.spoke_b[sl]] - pj
+    n = blk.size
+    cur = np.take(points, topo.free_nodes[blk.nodes], axis=0)
+    cx, cy = np.take(cur[:, 0], rel), np.take(cur[:, 1], rel)
+    pj = np.take(points, topo.spoke_ring[sl], axis=0)
+    jx, jy = pj[:, 0], pj[:, 1]
+    pa = np.take(points, topo.spoke_a[sl], axis=0)
+    pb = np.take(points, topo.spoke_b[sl], axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ua /= _norm(ua)[:, None]
-        ub /= _norm(ub)[:, None]
-        t = np.empty_like(ua)
-        t[:, 0] = ub[:, 1] - ua[:, 1]
-        t[:, 1] = ua[:, 0] - ub[:, 0]
+        ax, ay = pa[:, 0] - jx, pa[:, 1] - jy
+        bx, by = pb[:, 0] - jx, pb[:, 1] - jy
+        la = np.sqrt(ax * ax + ay * ay)
+        ax /= la
+        ay /= la
+        lb = np.sqrt(bx * bx + by * by)
+        bx /= lb
+        by /= lb
+        tx, ty = by - ay, ax - bx
         frac = topo.spoke_frac[sl]
-        uneq = frac != 0.5
-        if uneq.any():
-            u, v = ua[uneq], ub[uneq]
+        uneq = np.flatnonzero(frac != 0.5)
+        if uneq.shape[0]:
+            u = np.stack([ax[uneq], ay[uneq]], axis=1)
+            v = np.stack([bx[uneq], by[uneq]], axis=1)
             theta = np.arctan2(_cross(u, v), _dot(u, v))
             theta = np.where(theta <= 0, theta + 2 * np.pi, theta)
             phi = frac[uneq] * theta
             cs, sn = np.cos(phi), np.sin(phi)
-            t[uneq, 0] = cs * u[:, 0] - sn * u[:, 1]
-            t[uneq, 1] = sn * u[:, 0] + cs * u[:, 1]
-        d = centre - pj
-        t *= (_norm(d) / _norm(t))[:, None]
+            tx[uneq] = cs * u[:, 0] - sn * u[:, 1]
+            ty[uneq] = sn * u[:, 0] + cs * u[:, 1]
+        dx, dy = cx - jx, cy - jy
+        scale = np.sqrt(dx * dx + dy * dy)
+        scale /= np.sqrt(tx * tx + ty * ty)
+        tx *= scale
+        ty *= scale
     # a degenerate spoke (zero-length ring edge) keeps its current position
-    good = np.isfinite(t).all(axis=1)
-    cand = np.where(good[:, None], pj + t, centre)
-    n = blk.size
+    good = np.isfinite(tx) & np.isfinite(ty)
+    tx += jx
+    ty += jy
+    if not good.all():
+        bad = ~good
+        tx[bad], ty[bad] = cx[bad], cy[bad]
     out = np.empty((n, 2))
-    out[:, 0] = np.bincount(rel, weights=cand[:, 0], minlength=n)
-    out[:, 1] = np.bincount(rel, weights=cand[:, 1], minlength=n)
-    return out / blk.spoke_count[:, None]
+    out[:, 0] = np.bincount(rel, weights=tx, minlength=n)
+    out[:, 1] = np.bincount(rel, weights=ty, minlength=n)
+    out /= blk.spoke_count[:, None]
+    return out
 
 
-def local_scale(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
-    """Mean length of the edges at each block node, (n,)."""
+def local_scale(points: np.ndarray, topo: Topology, blk: Block, subset: np.ndarray | None = None) -> np.ndarray:
+    """Mean length of the edges at each block node, (n,), or at the block-local nodes ``subset`` only."""
     a = blk.nodes.start
-    rel = topo.ring_loc[blk.ring] - a
-    c = points[topo.free_nodes[topo.ring_loc[blk.ring]]]
-    ln = _norm(points[topo.ring_nbr[blk.ring]] - c)
-    return np.bincount(rel, weights=ln, minlength=blk.size) / blk.ring_count
+    loc = topo.ring_loc[blk.ring]
+    nbr = topo.ring_nbr[blk.ring]
+    count = blk.ring_count
+    n = blk.size
+    if subset is not None:
+        remap = np.full(n, -1, np.int64)
+        remap[subset] = np.arange(subset.shape[0])
+        keep = remap[loc - a] >= 0
+        loc, nbr, count, n = loc[keep], nbr[keep], count[subset], subset.shape[0]
+        rel = remap[loc - a]
+    else:
+        rel = loc - a
+    d = np.take(points, nbr, axis=0) - np.take(points, topo.free_nodes[loc], axis=0)
+    ln = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])
+    return np.bincount(rel, weights=ln, minlength=n) / count
 
 
 # --------------------------------------------------------------------------
@@ -251,17 +392,27 @@ def first_valid(geom: BlockGeometry, current: np.ndarray, target: np.ndarray, ha
     A node whose every shortened move is invalid stays (unless its current
     position is itself invalid and a move reduces the number of invalid cells).
     Returns (positions, rejected mask: True where the full move was refused).
+
+    The full moves are scored first; only the nodes where one is refused score
+    the shortened moves (the same choice as scoring every candidate).
     """
+    full = current + (target - current)
+    refused = ~(geom.score(full) > INVALID - 0.5)
+    if not refused.any():
+        return full, refused
+    sub = np.flatnonzero(refused)
+    cur, tgt = current[sub], target[sub]
     fr = 0.5 ** np.arange(halvings + 1)
-    cands = current[None] + fr[:, None, None] * (target - current)[None]
-    cands = np.concatenate([cands, current[None]])
-    s = geom.score(cands)
+    cands = cur[None] + fr[:, None, None] * (tgt - cur)[None]
+    cands = np.concatenate([cands, cur[None]])
+    s = geom.restrict(sub).score(cands)
     valid = s > INVALID - 0.5
     # first valid fraction; where none is valid, the best (staying is a candidate,
     # so an already invalid neighbourhood never gets more invalid cells)
     k = np.where(valid.any(axis=0), np.argmax(valid, axis=0), np.argmax(s, axis=0))
-    idx = np.arange(current.shape[0])
-    return cands[k, idx], k != 0
+    full[sub] = cands[k, np.arange(sub.shape[0])]
+    refused[sub] = k != 0
+    return full, refused
 
 
 def optimize(
