@@ -1,0 +1,312 @@
+"""Speed benchmark: topology set-up, time per pass, peak memory, end-to-end CLI.
+
+Generates seeded meshes into a temporary directory (never committed), then runs
+every case in its own subprocess so that the peak RSS of each case is its own:
+
+* random Delaunay triangle meshes (10k, 100k, 1M triangles) and a jittered
+  all-quad mesh (~250k quads);
+* for every method of ``anglesmooth.smoothers.SMOOTHERS`` with the guard on,
+  plus ``angle`` with the guard off: topology set-up time, median time per pass
+  over ``--repeat`` passes, peak RSS, and the ratio to ``laplacian`` of the
+  same mesh and run;
+* a single ``np.bincount``-based Laplacian pass (the floor ``laplacian`` is
+  compared with);
+* the whole CLI (``anglesmooth in.msh out.vtu --passes 10``) beside meshio alone
+  reading the same ``.msh`` and writing a zlib-compressed ``.vtu``.
+
+Usage::
+
+    PYTHONPATH=src python benchmarks/bench_speed.py                 # everything
+    PYTHONPATH=src python benchmarks/bench_speed.py --sizes 100k,1M --repeat 5 --json out.json
+    PYTHONPATH=src python benchmarks/bench_speed.py --tiny          # seconds; what the test runs
+
+No number here is asserted anywhere: the benchmark prints, it does not judge.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+SIZES = {"10k": ("tri", 10_000), "100k": ("tri", 100_000), "1M": ("tri", 1_000_000), "quad250k": ("quad", 250_000)}
+TINY = {"tiny": ("tri", 2_000), "tinyquad": ("quad", 1_000)}
+SRC = Path(__file__).resolve().parents[1] / "src"
+
+
+# --------------------------------------------------------------------------- meshes
+
+
+def make_mesh(kind: str, n_cells: int, seed: int = 0):
+    """A Mesh2D from anglesmooth.generate, or a scipy-Delaunay fallback when that module is absent."""
+    from anglesmooth.mesh import Mesh2D
+
+    try:
+        from anglesmooth import generate
+    except ImportError:  # pragma: no cover - before generate.py existed
+        generate = None
+    if kind == "tri":
+        if generate is not None and hasattr(generate, "random_delaunay"):
+            return generate.random_delaunay(n_cells, seed)
+        from scipy.spatial import Delaunay
+
+        rng = np.random.default_rng(seed)
+        m = max(1, round((n_cells / 2) ** 0.5))
+        s = np.arange(m) / m
+        side = np.concatenate([np.c_[s, 0 * s], np.c_[1 + 0 * s, s], np.c_[1 - s, 1 + 0 * s], np.c_[0 * s, 1 - s]])
+        pts = np.concatenate([side, rng.uniform(0, 1, size=(max(1, (n_cells - 4 * m + 2) // 2), 2))])
+        tri = Delaunay(pts).simplices
+        a, b, c = pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]
+        cw = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]) < 0
+        tri[cw] = tri[cw][:, ::-1]
+        return Mesh2D.from_arrays(pts, triangles=tri)
+    if generate is not None and hasattr(generate, "random_quad_mesh"):
+        return generate.random_quad_mesh(n_cells, seed)
+    n = max(1, round(n_cells**0.5))
+    rng = np.random.default_rng(seed)
+    x, y = np.meshgrid(np.linspace(0, 1, n + 1), np.linspace(0, 1, n + 1))
+    pts = np.c_[x.ravel(), y.ravel()]
+    inner = (pts > 0).all(axis=1) & (pts < 1).all(axis=1)
+    pts[inner] += rng.uniform(-0.24, 0.24, size=(int(inner.sum()), 2)) / n
+    i, j = np.meshgrid(np.arange(n), np.arange(n))
+    v = (j * (n + 1) + i).ravel()
+    return Mesh2D.from_arrays(pts, quads=np.c_[v, v + 1, v + n + 2, v + n + 1])
+
+
+def write_inputs(name: str, kind: str, n_cells: int, tmp: Path) -> dict:
+    mesh = make_mesh(kind, n_cells)
+    npz = tmp / f"{name}.npz"
+    np.savez(npz, points=mesh.points, triangles=mesh.triangles, quads=mesh.quads)
+    msh = tmp / f"{name}.msh"
+    try:
+        import meshio
+
+        cells = [(k, c) for k, c in (("triangle", mesh.triangles), ("quad", mesh.quads)) if c.shape[0]]
+        pts3 = np.c_[mesh.points, np.zeros(mesh.n_points)]
+        meshio.write(msh, meshio.Mesh(pts3, cells), file_format="gmsh", binary=True)
+    except Exception as exc:  # noqa: BLE001 - the CLI columns are optional
+        print(f"(no .msh for {name}: {exc})", file=sys.stderr)
+        msh = None
+    return {
+        "name": name,
+        "kind": kind,
+        "npz": str(npz),
+        "msh": str(msh) if msh else None,
+        "n_points": mesh.n_points,
+        "n_cells": mesh.n_cells,
+    }
+
+
+# --------------------------------------------------------------------------- workers (one per subprocess)
+
+
+def _peak_rss_mb() -> float:
+    kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux
+    return kb / 1024.0 if sys.platform != "darwin" else kb / 2**20
+
+
+def worker_method(npz: str, method: str, guard: bool, repeat: int) -> dict:
+    from anglesmooth.mesh import Mesh2D
+    from anglesmooth.smoothers import SMOOTHERS
+    from anglesmooth.topology import build_topology
+
+    d = np.load(npz)
+    mesh = Mesh2D.from_arrays(d["points"], triangles=d["triangles"], quads=d["quads"])
+    t0 = time.perf_counter()
+    topo = build_topology(mesh)
+    topo.blocks()  # the per-colour slices, built once and cached
+    setup = time.perf_counter() - t0
+    step = SMOOTHERS[method].step
+    pts = np.array(mesh.points)
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        pts = step(pts, topo, guard=guard).points
+        times.append(time.perf_counter() - t0)
+    out = {"setup_s": setup, "pass_s": statistics.median(times), "passes_s": times, "peak_rss_mb": _peak_rss_mb()}
+    if method == "laplacian" and guard is False:
+        out["bincount_pass_s"] = _bincount_pass(mesh.points, topo, repeat)
+    return out
+
+
+def _bincount_pass(points: np.ndarray, topo, repeat: int) -> float:
+    """One Jacobi Laplacian pass over all nodes with two np.bincount calls (the floor)."""
+    src = np.repeat(np.arange(topo.n_points), np.diff(topo.ring_offsets))
+    nbr = topo.ring_indices
+    deg = np.maximum(np.diff(topo.ring_offsets), 1)
+    times = []
+    for _ in range(max(repeat, 3)):
+        t0 = time.perf_counter()
+        nb = np.take(points, nbr, axis=0)
+        new = np.empty_like(points)
+        new[:, 0] = np.bincount(src, weights=nb[:, 0], minlength=topo.n_points) / deg
+        new[:, 1] = np.bincount(src, weights=nb[:, 1], minlength=topo.n_points) / deg
+        new[topo.fixed] = points[topo.fixed]
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def worker_meshio(msh: str, out: str) -> dict:
+    import meshio
+
+    t0 = time.perf_counter()
+    m = meshio.read(msh)
+    t1 = time.perf_counter()
+    meshio.write(out, m, file_format="vtu", compression="zlib")
+    t2 = time.perf_counter()
+    return {"read_s": t1 - t0, "write_s": t2 - t1, "total_s": t2 - t0, "peak_rss_mb": _peak_rss_mb()}
+
+
+def _run_worker(args: list[str]) -> dict:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(SRC), env.get("PYTHONPATH", "")])
+    res = subprocess.run([sys.executable, __file__, "--worker", *args], capture_output=True, text=True, env=env)
+    if res.returncode != 0:
+        return {"error": (res.stderr.strip().splitlines() or ["failed"])[-1]}
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def _cli_available() -> bool:
+    try:
+        import anglesmooth.cli  # noqa: F401
+    except Exception:  # noqa: BLE001
+        return False
+    return True
+
+
+def run_cli(msh: str, out: str, passes: int = 10) -> dict:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(SRC), env.get("PYTHONPATH", "")])
+    cmd = [sys.executable, "-m", "anglesmooth", msh, out, "--passes", str(passes)]
+    t0 = time.perf_counter()
+    res = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    wall = time.perf_counter() - t0
+    # children's peak RSS: resource reports the largest child so far, so only a lower bound
+    return {"total_s": wall, "returncode": res.returncode, "stderr_tail": res.stderr.strip().splitlines()[-1:]}
+
+
+# --------------------------------------------------------------------------- driver
+
+
+def cases() -> list[tuple[str, bool]]:
+    from anglesmooth.smoothers import SMOOTHERS
+
+    return [(m, True) for m in SMOOTHERS] + [("angle", False), ("laplacian", False)]
+
+
+def run(sizes: dict, repeat: int, cli: bool, tmp: Path, slow_repeat: int | None = None) -> list[dict]:
+    rows = []
+    for name, (kind, n_cells) in sizes.items():
+        info = write_inputs(name, kind, n_cells, tmp)
+        print(f"# {name}: {info['n_cells']} cells, {info['n_points']} nodes", file=sys.stderr, flush=True)
+        results = {}
+        for method, guard in cases():
+            rep = repeat
+            if method == "optimization" and slow_repeat is not None:
+                rep = slow_repeat
+            r = _run_worker(["method", info["npz"], method, str(int(guard)), str(rep)])
+            results[(method, guard)] = r
+            print(f"#   {method:16s} guard={guard!s:5s} {r.get('pass_s', float('nan')):8.3f} s/pass", file=sys.stderr, flush=True)
+        lap = results[("laplacian", True)].get("pass_s")
+        floor = results[("laplacian", False)].get("bincount_pass_s")
+        for (method, guard), r in results.items():
+            row = {"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"], "method": method, "guard": guard}
+            row.update({k: v for k, v in r.items() if k != "passes_s"})
+            if lap and "pass_s" in r:
+                row["ratio_to_laplacian"] = r["pass_s"] / lap
+            if floor and "pass_s" in r:
+                row["ratio_to_bincount"] = r["pass_s"] / floor
+            rows.append(row)
+        if cli and info["msh"]:
+            m = _run_worker(["meshio", info["msh"], str(tmp / f"{name}_meshio.vtu")])
+            c = run_cli(info["msh"], str(tmp / f"{name}_cli.vtu"))
+            rows.append({"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"], "method": "meshio read+write",
+                         "guard": None, "e2e_s": m.get("total_s"), "read_s": m.get("read_s"),
+                         "write_s": m.get("write_s"), "peak_rss_mb": m.get("peak_rss_mb")})
+            ratio = c["total_s"] / m["total_s"] if m.get("total_s") else None
+            rows.append({"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"], "method": "CLI --passes 10",
+                         "guard": True, "e2e_s": c["total_s"], "ratio_to_meshio": ratio, "returncode": c["returncode"]})
+        for p in tmp.glob(f"{name}*"):
+            p.unlink()
+    return rows
+
+
+def _fmt(v, spec):
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        return format(v, spec)
+    return "-".rjust(int(spec.split(".")[0]))
+
+
+def table(rows: list[dict]) -> str:
+    head = f"{'mesh':>9} {'cells':>9} {'method':<18} {'guard':<5} {'setup s':>8} {'s/pass':>8} {'x lap':>6} {'x bincnt':>8} {'e2e s':>7} {'x meshio':>8} {'RSS MB':>7}"
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        guard = "" if r.get("guard") is None else ("on" if r["guard"] else "off")
+        if "error" in r:
+            lines.append(f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<18} {guard:<5} error: {r['error']}")
+            continue
+        lines.append(
+            f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<18} {guard:<5} {_fmt(r.get('setup_s'), '8.2f')} "
+            f"{_fmt(r.get('pass_s'), '8.3f')} {_fmt(r.get('ratio_to_laplacian'), '6.2f')} "
+            f"{_fmt(r.get('ratio_to_bincount'), '8.1f')} {_fmt(r.get('e2e_s'), '7.2f')} "
+            f"{_fmt(r.get('ratio_to_meshio'), '8.2f')} {_fmt(r.get('peak_rss_mb'), '7.0f')}"
+        )
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["--worker"]:
+        kind, *rest = argv[1:]
+        if kind == "method":
+            npz, method, guard, rep = rest
+            out = worker_method(npz, method, bool(int(guard)), int(rep))
+        else:
+            out = worker_meshio(*rest)
+        print(json.dumps(out))
+        return 0
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default=",".join(SIZES), help=f"comma-separated subset of {','.join(SIZES)}")
+    ap.add_argument("--repeat", type=int, default=5, help="passes timed per case (median reported)")
+    ap.add_argument("--slow-repeat", type=int, default=None, help="passes for 'optimization' (default: --repeat)")
+    ap.add_argument("--no-cli", action="store_true", help="skip the end-to-end CLI and meshio columns")
+    ap.add_argument("--tiny", action="store_true", help="tiny meshes, 2 passes (for the test suite)")
+    ap.add_argument("--json", metavar="PATH", help="also write the rows as JSON")
+    args = ap.parse_args(argv)
+    if args.tiny:
+        sizes, repeat = TINY, 2
+    else:
+        unknown = [s for s in args.sizes.split(",") if s not in SIZES]
+        if unknown:
+            ap.error(f"unknown size(s) {unknown}; choose from {','.join(SIZES)}")
+        sizes, repeat = {s: SIZES[s] for s in args.sizes.split(",")}, args.repeat
+    cli = not args.no_cli and _cli_available()
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="anglesmooth-bench-") as tmp:
+        rows = run(sizes, repeat, cli, Path(tmp), args.slow_repeat)
+    print(table(rows))
+    meta = {
+        "python": sys.version.split()[0],
+        "numpy": np.__version__,
+        "cpus": os.cpu_count(),
+        "repeat": repeat,
+        "wall_s": time.perf_counter() - t0,
+        "command": " ".join([Path(sys.executable).name, *sys.argv]),
+    }
+    if args.json:
+        Path(args.json).write_text(json.dumps({"meta": meta, "rows": rows}, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(SRC))
+    sys.exit(main())

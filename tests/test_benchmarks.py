@@ -1,0 +1,41 @@
+"""The speed benchmark runs on a tiny size and prints its table and JSON (no timing is asserted)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPT = ROOT / "benchmarks" / "bench_speed.py"
+
+
+@pytest.mark.skipif(not SCRIPT.exists(), reason="benchmarks/ not shipped")
+def test_bench_speed_tiny(tmp_path):
+    out = tmp_path / "bench.json"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
+    res = subprocess.run(
+        [sys.executable, str(SCRIPT), "--tiny", "--no-cli", "--json", str(out)],
+        capture_output=True, text=True, env=env, cwd=tmp_path, timeout=600,
+    )
+    assert res.returncode == 0, res.stderr
+    header = res.stdout.splitlines()[0].split()
+    for col in ("mesh", "method", "s/pass", "RSS"):
+        assert col in header
+    from anglesmooth.smoothers import SMOOTHERS
+
+    data = json.loads(out.read_text())
+    rows = data["rows"]
+    methods = {(r["mesh"], r["method"], r["guard"]) for r in rows}
+    for name in SMOOTHERS:
+        assert ("tiny", name, True) in methods and ("tinyquad", name, True) in methods
+    assert ("tiny", "angle", False) in methods
+    for r in rows:
+        assert "error" not in r, r
+        assert r["pass_s"] >= 0 and r["setup_s"] >= 0 and r["peak_rss_mb"] > 0
+    assert any("ratio_to_laplacian" in r for r in rows)
+    assert list(tmp_path.iterdir()) == [out]  # meshes went to a temporary directory
