@@ -191,20 +191,52 @@ def read(path, *, file_format: str | None = None) -> Mesh2D:
                 f"{where}: unknown file extension '{''.join(p.suffixes) or '(none)'}' "
                 "(name the format with --input-format)"
             )
-    meshio = _meshio()
+    m = _read_meshio(p, fmt, where)
+    is_gmsh = header is not None and (fmt or "").startswith("gmsh")
     try:
-        with _quiet():
-            m = meshio.read(p, file_format=fmt)
+        return _to_mesh2d(m, _Source(m, fmt, header[0] if is_gmsh else None, header[1] if is_gmsh else None, False))
+    except (InvalidMeshError, UnsupportedMeshError) as e:
+        raise type(e)(f"'{p}': {e}") from None
     except MemoryError:
         raise MeshReadError(f"{where}: too large to read: out of memory") from None
-    except (Exception, SystemExit) as e:  # meshio raises anything (even exits) on corrupt input
-        raise MeshReadError(f"{where}: {_reason(e)}") from None
-    is_gmsh = header is not None and (fmt or "").startswith("gmsh")
-    return _to_mesh2d(m, _Source(m, fmt, header[0] if is_gmsh else None, header[1] if is_gmsh else None, False))
+
+
+def _read_meshio(p: Path, fmt: str | None, where: str):
+    """Call meshio's reader for each candidate format; the first that parses wins.
+
+    ``meshio.read`` prints each reader's error to stdout and ends with
+    ``sys.exit(1)`` when every candidate fails, which hides the reason; calling
+    the readers directly keeps it.  Readers raise anything on corrupt input.
+    """
+    meshio = _meshio()
+    from meshio._helpers import reader_map
+
+    cands = [fmt] if fmt else list(dict.fromkeys(_formats_for(p)))
+    if "gmsh" in cands:  # '.msh' is far more often gmsh than ANSYS: report gmsh's reason first
+        cands.insert(0, cands.pop(cands.index("gmsh")))
+    unknown = [c for c in cands if c not in reader_map]
+    if unknown:
+        raise MeshReadError(f"{where}: unknown format '{unknown[0]}' (meshio reads: {', '.join(sorted(reader_map))})")
+    reasons = []
+    for name in cands:
+        try:
+            with _quiet():
+                return reader_map[name](str(p))
+        except MemoryError:
+            raise MeshReadError(f"{where}: too large to read: out of memory") from None
+        except (Exception, SystemExit) as e:
+            cause = e
+            if isinstance(e, meshio.ReadError) and not str(e).strip() and e.__context__ is not None:
+                cause = e.__context__
+            detail = _reason(cause) if str(cause).strip() else "truncated or corrupt"
+            reasons.append(f"not a valid {name} file ({detail})")
+    raise MeshReadError(f"{where}: {'; '.join(reasons) if len(reasons) < 3 else reasons[0] + '; ...'}")
 
 
 def _points(m) -> tuple[np.ndarray, bool]:
     pts = np.asarray(m.points)
+    if pts.size == 0:
+        raise InvalidMeshError("the mesh has no nodes")
     if pts.ndim != 2 or pts.shape[1] not in (2, 3) or pts.dtype.kind not in "fiu":
         raise InvalidMeshError(f"points have shape {pts.shape} and type {pts.dtype}, expected (N, 2) or (N, 3) numbers")
     pts = pts.astype(np.float64)
@@ -241,7 +273,20 @@ def _int_tags(arr, n: int) -> np.ndarray | None:
     return a.astype(np.int64)
 
 
+def _check_cell_types(m) -> None:
+    """Unsupported cell types first: a tetra mesh is 'unsupported', not 'not planar'."""
+    for block in m.cells:
+        t, data = block.type, np.asarray(block.data)
+        if t == "polygon" and data.ndim == 2 and data.shape[1] in (3, 4):
+            continue
+        if not (t in _TRI or t in _QUAD or t == "vertex" or t.startswith("line")):
+            raise UnsupportedMeshError(
+                f"unsupported cell type '{block.type}' (anglesmooth smooths 2D triangle and quad meshes)"
+            )
+
+
 def _to_mesh2d(m, src: _Source) -> Mesh2D:
+    _check_cell_types(m)
     pts, had_z = _points(m)
     src = _Source(src.mesh, src.format, src.gmsh_version, src.gmsh_binary, had_z)
     n = pts.shape[0]
@@ -416,7 +461,8 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
         raise InvalidMeshError(f"node {int(np.flatnonzero(~np.isfinite(xy).all(axis=1))[0])} has a non-finite coordinate")
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir():
-        raise MeshWriteError(f"{where}: directory '{parent}' does not exist")
+        what = "is not a directory" if parent.exists() else "does not exist"
+        raise MeshWriteError(f"{where}: directory '{parent}' {what}")
     if p.is_dir():
         raise MeshWriteError(f"{where}: is a directory")
     if not os.access(parent, os.W_OK | os.X_OK):
@@ -435,7 +481,10 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
     except Exception as e:
         raise MeshWriteError(f"{where}: {_reason(e)}") from None
     suffix = "".join(p.suffixes[-2:]) if fmt in ("permas", "netgen") else p.suffix
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.tmp", suffix=suffix, dir=parent)
+    try:  # root passes os.access on read-only file systems (and /sys, /proc): creating the file tells
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.tmp", suffix=suffix, dir=parent)
+    except OSError as e:
+        raise MeshWriteError(f"{where}: cannot create a file in '{parent}': {e.strerror or _reason(e)}") from None
     os.close(fd)
     try:
         with _quiet():
