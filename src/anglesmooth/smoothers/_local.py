@@ -84,26 +84,20 @@ class _Rows:
 
 
 def _rowmin(vals: np.ndarray, d: int) -> np.ndarray:
-    """Minimum of every ``d`` consecutive values."""
-    w = vals.reshape(-1, d)
-    out = w[:, 0].copy()
+    """Minimum of every ``d`` consecutive values along the last axis: (..., m * d) -> (..., m)."""
+    w = vals.reshape(vals.shape[:-1] + (-1, d))
+    out = w[..., 0].copy()
     for j in range(1, d):
-        np.minimum(out, w[:, j], out=out)
+        np.minimum(out, w[..., j], out=out)
     return out
 
 
 def _rowmax(vals: np.ndarray, d: int) -> np.ndarray:
-    w = vals.reshape(-1, d)
-    out = w[:, 0].copy()
+    w = vals.reshape(vals.shape[:-1] + (-1, d))
+    out = w[..., 0].copy()
     for j in range(1, d):
-        np.maximum(out, w[:, j], out=out)
+        np.maximum(out, w[..., j], out=out)
     return out
-
-
-def _reduce_chunk(best, bad, rel_chunk, nodes, d, vals, ok):
-    best[nodes] = np.minimum(best[nodes], _rowmin(vals, d))
-    if not ok.all():
-        bad += np.bincount(rel_chunk[~ok], minlength=bad.shape[0])
 
 
 class BlockGeometry:
@@ -188,19 +182,26 @@ class BlockGeometry:
         X = np.asarray(X, dtype=np.float64)
         lead = X.shape[:-2]
         Xf = X.reshape((-1, self.n, 2))
-        out = np.empty((Xf.shape[0], self.n))
+        K = Xf.shape[0]
+        x0, y0 = np.ascontiguousarray(Xf[..., 0]), np.ascontiguousarray(Xf[..., 1])
+        best = np.full((K, self.n), np.inf)
+        bad = np.zeros((K, self.n))
         with np.errstate(divide="ignore", invalid="ignore"):
-            for k in range(Xf.shape[0]):
-                x0, y0 = np.ascontiguousarray(Xf[k, :, 0]), np.ascontiguousarray(Xf[k, :, 1])
-                best = np.full(self.n, np.inf)
-                bad = np.zeros(self.n)
-                for r0, r1, nodes, d in self._t.chunks:
-                    vals, ok = self._tri_chunk(np.repeat(x0[nodes], d), np.repeat(y0[nodes], d), r0, r1)
-                    _reduce_chunk(best, bad, self.t_rel[r0:r1], nodes, d, vals, ok)
-                for r0, r1, nodes, d in self._q.chunks:
-                    vals, ok = self._quad_chunk(np.repeat(x0[nodes], d), np.repeat(y0[nodes], d), r0, r1)
-                    _reduce_chunk(best, bad, self.q_rel[r0:r1], nodes, d, vals, ok)
-                out[k] = np.where(bad > 0, INVALID - bad, best)
+            for rows, kernel, rel in ((self._t, self._tri_chunk, self.t_rel), (self._q, self._quad_chunk, self.q_rel)):
+                for r0, r1, nodes, d in rows.chunks:
+                    # small chunks take several candidates at once (fewer, larger numpy calls)
+                    kb = max(1, _CHUNK // (r1 - r0))
+                    for k0 in range(0, K, kb):
+                        k1 = min(k0 + kb, K)
+                        px = np.repeat(x0[k0:k1, nodes], d, axis=1)
+                        py = np.repeat(y0[k0:k1, nodes], d, axis=1)
+                        vals, ok = kernel(px, py, r0, r1)
+                        best[k0:k1, nodes] = np.minimum(best[k0:k1, nodes], _rowmin(vals, d))
+                        if not ok.all():
+                            kk, rr = np.nonzero(~ok)
+                            cnt = np.bincount(kk * self.n + rel[r0 + rr], minlength=(k1 - k0) * self.n)
+                            bad[k0:k1] += cnt.reshape(k1 - k0, self.n)
+        out = np.where(bad > 0, INVALID - bad, best)
         return out.reshape(lead + (self.n,))
 
     def _tri_chunk(self, px, py, r0, r1):
@@ -251,15 +252,18 @@ class BlockGeometry:
         X = np.asarray(X, dtype=np.float64)
         lead = X.shape[:-2]
         Xf = X.reshape((-1, self.n, 2))
-        lo = np.full((Xf.shape[0], self.n), np.inf)
-        hi = np.full((Xf.shape[0], self.n), -np.inf)
-        for k in range(Xf.shape[0]):
-            x0, y0 = np.ascontiguousarray(Xf[k, :, 0]), np.ascontiguousarray(Xf[k, :, 1])
-            for rows, area in ((self._t, self._tri_area), (self._q, self._quad_area)):
-                for r0, r1, nodes, d in rows.chunks:
-                    ar = area(np.repeat(x0[nodes], d), np.repeat(y0[nodes], d), r0, r1)
-                    lo[k, nodes] = np.minimum(lo[k, nodes], _rowmin(ar, d))
-                    hi[k, nodes] = np.maximum(hi[k, nodes], _rowmax(ar, d))
+        K = Xf.shape[0]
+        x0, y0 = np.ascontiguousarray(Xf[..., 0]), np.ascontiguousarray(Xf[..., 1])
+        lo = np.full((K, self.n), np.inf)
+        hi = np.full((K, self.n), -np.inf)
+        for rows, area in ((self._t, self._tri_area), (self._q, self._quad_area)):
+            for r0, r1, nodes, d in rows.chunks:
+                kb = max(1, _CHUNK // (r1 - r0))
+                for k0 in range(0, K, kb):
+                    k1 = min(k0 + kb, K)
+                    ar = area(np.repeat(x0[k0:k1, nodes], d, axis=1), np.repeat(y0[k0:k1, nodes], d, axis=1), r0, r1)
+                    lo[k0:k1, nodes] = np.minimum(lo[k0:k1, nodes], _rowmin(ar, d))
+                    hi[k0:k1, nodes] = np.maximum(hi[k0:k1, nodes], _rowmax(ar, d))
         return lo.reshape(lead + (self.n,)), hi.reshape(lead + (self.n,))
 
     def _tri_area(self, px, py, r0, r1):
