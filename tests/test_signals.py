@@ -1,0 +1,148 @@
+"""Interrupting a run (SIGINT, SIGTERM) leaves no partial output and exits non-zero.
+
+The command line runs as a real subprocess on a generated 200 000-triangle mesh
+with a huge number of passes.  cli.py documents exit 130 for SIGINT and 143 for
+SIGTERM and one ``anglesmooth: error: interrupted`` / ``terminated`` line.
+
+Three moments are tested:
+
+* a fixed delay after start with the plain ``python -m anglesmooth`` (wherever
+  the run is, the guarantee must hold);
+* during the passes: a thin launcher wraps ``cli.run_smooth`` so that every
+  pass prints a marker line on stderr, and the signal is sent after the first
+  marker;
+* during the write: the launcher makes the meshio write print a marker once the
+  temporary file is complete and then sleep, so the signal arrives while the
+  temporary file exists next to the (absent) output.
+
+After the signal the directory must hold exactly the input, unchanged (sha256),
+and an existing output must be untouched.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from anglesmooth.generate import random_delaunay
+from anglesmooth.io import write
+
+EXIT = {signal.SIGINT: (130, "interrupted"), signal.SIGTERM: (143, "terminated")}
+SIGNALS = [signal.SIGINT, signal.SIGTERM]
+MARK = "signal-test:"
+
+LAUNCHER = f"""
+import sys, time
+from anglesmooth import cli, io
+
+def run_smooth(*args, callback=None, **kwargs):
+    def cb(k, points, displacement):
+        print("{MARK} pass", k, file=sys.stderr, flush=True)
+        if callback is not None:
+            callback(k, points, displacement)
+    return orig_smooth(*args, callback=cb, **kwargs)
+
+def write_meshio(tmp, *args, **kwargs):
+    orig_write(tmp, *args, **kwargs)
+    print("{MARK} written", tmp, file=sys.__stderr__, flush=True)  # io silences sys.stderr while writing
+    time.sleep(60)
+
+orig_smooth, orig_write = cli.run_smooth, io._write_meshio
+cli.run_smooth = run_smooth
+if sys.argv[1] == "write":
+    io._write_meshio = write_meshio
+cli.main(sys.argv[2:])
+"""
+
+
+@pytest.fixture(scope="module")
+def big(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("big") / "big.vtu"
+    write(random_delaunay(200_000, seed=7), path)
+    return path
+
+
+def _digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _start(argv: list[str], cwd: Path) -> subprocess.Popen:
+    # restore SIGINT's default disposition: a shell may start background jobs with SIGINT ignored,
+    # and Python only installs its KeyboardInterrupt handler when SIGINT is not ignored
+    return subprocess.Popen(argv, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+
+
+def _wait_for(proc: subprocess.Popen, needle: str, timeout: float = 120.0) -> list[str]:
+    """Read stderr lines until one contains ``needle``; return the lines read."""
+    lines: list[str] = []
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        line = proc.stderr.readline()
+        if not line:
+            break
+        lines.append(line)
+        if needle in line:
+            return lines
+    proc.kill()
+    raise AssertionError(f"never saw {needle!r}; stderr so far: {''.join(lines)}")
+
+
+def _finish(proc: subprocess.Popen, sig: signal.Signals, earlier: list[str]) -> None:
+    proc.send_signal(sig)
+    stdout, rest = proc.communicate(timeout=60)
+    stderr = "".join(earlier) + rest
+    code, word = EXIT[sig]
+    assert proc.returncode == code, stderr
+    assert stdout == ""
+    assert "Traceback" not in stderr
+    errors = [line for line in stderr.splitlines() if line.strip() and not line.startswith(MARK)]
+    assert errors == [f"anglesmooth: error: {word}"], stderr
+
+
+def _setup(big: Path, tmp_path: Path) -> tuple[Path, Path, str]:
+    src = tmp_path / "in.vtu"
+    src.write_bytes(big.read_bytes())
+    return src, tmp_path / "out.vtu", _digest(src)
+
+
+@pytest.mark.parametrize("sig", SIGNALS, ids=lambda s: s.name)
+def test_signal_after_a_fixed_delay(big, tmp_path, sig):
+    src, out, digest = _setup(big, tmp_path)
+    proc = _start([sys.executable, "-m", "anglesmooth", str(src), str(out), "--passes", "100000"], tmp_path)
+    time.sleep(4.0)
+    assert proc.poll() is None, proc.communicate()
+    _finish(proc, sig, [])
+    assert sorted(os.listdir(tmp_path)) == ["in.vtu"]
+    assert _digest(src) == digest
+
+
+@pytest.mark.parametrize("sig", SIGNALS, ids=lambda s: s.name)
+def test_signal_during_the_passes(big, tmp_path, sig):
+    src, out, digest = _setup(big, tmp_path)
+    proc = _start([sys.executable, "-c", LAUNCHER, "smooth", str(src), str(out), "--passes", "100000"], tmp_path)
+    lines = _wait_for(proc, f"{MARK} pass 1")
+    _finish(proc, sig, lines)
+    assert sorted(os.listdir(tmp_path)) == ["in.vtu"]
+    assert _digest(src) == digest
+
+
+@pytest.mark.parametrize("sig", SIGNALS, ids=lambda s: s.name)
+def test_signal_during_the_write_keeps_the_old_output(big, tmp_path, sig):
+    src, out, digest = _setup(big, tmp_path)
+    out.write_bytes(b"previous result")
+    proc = _start([sys.executable, "-c", LAUNCHER, "write", str(src), str(out), "--passes", "1"], tmp_path)
+    lines = _wait_for(proc, f"{MARK} written")
+    tmp = Path(lines[-1].split("written", 1)[1].strip())
+    assert tmp.parent == tmp_path and tmp.exists() and tmp.stat().st_size > 0  # the write really was under way
+    _finish(proc, sig, lines)
+    assert sorted(os.listdir(tmp_path)) == ["in.vtu", "out.vtu"]
+    assert out.read_bytes() == b"previous result"
+    assert _digest(src) == digest
