@@ -100,6 +100,34 @@ def _rowmax(vals: np.ndarray, d: int) -> np.ndarray:
     return out
 
 
+def _layout(topo: Topology, blk: Block, subset: np.ndarray | None):
+    """Row layout of a block's incident cells (depends on the topology only, cached for whole blocks).
+
+    Returns (n, tri rows, tri rel, (v1, v2), quad rows, quad rel, (v1, v2, v3)) with the rows
+    reordered by :class:`_Rows` and the vertex columns as contiguous index arrays.
+    """
+    a = blk.nodes.start
+    n = blk.size
+    t_rel = topo.tri_loc[blk.tris] - a
+    t_v = topo.tri_verts[blk.tris]
+    q_rel = topo.quad_loc[blk.quads] - a
+    q_v = topo.quad_verts[blk.quads]
+    if subset is not None:
+        remap = np.full(n, -1, np.int64)
+        remap[subset] = np.arange(subset.shape[0])
+        keep = remap[t_rel] >= 0
+        t_rel, t_v = remap[t_rel[keep]], t_v[keep]
+        keep = remap[q_rel] >= 0
+        q_rel, q_v = remap[q_rel[keep]], q_v[keep]
+        n = subset.shape[0]
+    t_rows, q_rows = _Rows(t_rel, n), _Rows(q_rel, n)
+    t_cols = tuple(np.ascontiguousarray(t_v[t_rows.perm, k]) for k in (1, 2))
+    q_cols = tuple(np.ascontiguousarray(q_v[q_rows.perm, k]) for k in (1, 2, 3))
+    t_rel, q_rel = t_rel[t_rows.perm], q_rel[q_rows.perm]
+    t_rows.perm = q_rows.perm = None  # applied; not needed again
+    return n, t_rows, t_rel, t_cols, q_rows, q_rel, q_cols
+
+
 class BlockGeometry:
     """The fixed part of a block's incident cells, gathered once per block update.
 
@@ -115,38 +143,27 @@ class BlockGeometry:
     """
 
     def __init__(self, points: np.ndarray, topo: Topology, blk: Block, subset: np.ndarray | None = None):
-        a = blk.nodes.start
-        n = blk.size
-        t_rel = topo.tri_loc[blk.tris] - a
-        t_v = topo.tri_verts[blk.tris]
-        q_rel = topo.quad_loc[blk.quads] - a
-        q_v = topo.quad_verts[blk.quads]
-        if subset is not None:
-            remap = np.full(n, -1, np.int64)
-            remap[subset] = np.arange(subset.shape[0])
-            keep = remap[t_rel] >= 0
-            t_rel, t_v = remap[t_rel[keep]], t_v[keep]
-            keep = remap[q_rel] >= 0
-            q_rel, q_v = remap[q_rel[keep]], q_v[keep]
-            n = subset.shape[0]
-        self.n = n
-        self._t, self._q = _Rows(t_rel, n), _Rows(q_rel, n)
-        self.t_rel, t_v = t_rel[self._t.perm], np.take(t_v, self._t.perm, axis=0)
-        self.q_rel, q_v = q_rel[self._q.perm], np.take(q_v, self._q.perm, axis=0)
-        px, py = points[:, 0], points[:, 1]
+        if subset is None:
+            key = ("geometry", blk.nodes.start, blk.nodes.stop)
+            layout = topo._cache.get(key)
+            if layout is None:
+                layout = topo._cache[key] = _layout(topo, blk, None)
+        else:
+            layout = _layout(topo, blk, subset)
+        self.n, self._t, self.t_rel, t_v, self._q, self.q_rel, q_v = layout
         with np.errstate(divide="ignore", invalid="ignore"):
             # triangles (p0 moving, p1, p2 fixed)
-            i1, i2 = t_v[:, 1], t_v[:, 2]
-            self.t_x1, self.t_y1 = np.take(px, i1), np.take(py, i1)
-            self.t_x2, self.t_y2 = np.take(px, i2), np.take(py, i2)
+            p1, p2 = np.take(points, t_v[0], axis=0), np.take(points, t_v[1], axis=0)
+            self.t_x1, self.t_y1 = p1[:, 0], p1[:, 1]
+            self.t_x2, self.t_y2 = p2[:, 0], p2[:, 1]
             self.t_ux = self.t_x2 - self.t_x1  # e12 = p2 - p1
             self.t_uy = self.t_y2 - self.t_y1
             self.t_l12 = np.sqrt(self.t_ux * self.t_ux + self.t_uy * self.t_uy)
             # quads (p0 moving; p1, p2, p3 fixed); corner 2 does not depend on p0
-            i1, i2, i3 = q_v[:, 1], q_v[:, 2], q_v[:, 3]
-            self.q_x1, self.q_y1 = np.take(px, i1), np.take(py, i1)
-            self.q_x3, self.q_y3 = np.take(px, i3), np.take(py, i3)
-            x2, y2 = np.take(px, i2), np.take(py, i2)
+            p1, p2, p3 = (np.take(points, i, axis=0) for i in q_v)
+            self.q_x1, self.q_y1 = p1[:, 0], p1[:, 1]
+            self.q_x3, self.q_y3 = p3[:, 0], p3[:, 1]
+            x2, y2 = p2[:, 0], p2[:, 1]
             self.q_ux, self.q_uy = x2 - self.q_x1, y2 - self.q_y1  # e12
             self.q_vx, self.q_vy = self.q_x3 - x2, self.q_y3 - y2  # e23
             self.q_l12 = np.sqrt(self.q_ux * self.q_ux + self.q_uy * self.q_uy)
