@@ -222,23 +222,28 @@ class BlockGeometry:
         return out.reshape(lead + (self.n,))
 
     def _tri_chunk(self, px, py, r0, r1):
-        """(-max cos of the three corners, valid) for triangle rows r0:r1."""
+        """(-max cos of the three corners, valid) for triangle rows r0:r1.
+
+        With f2 = p0 - p2 = -(p2 - p0) (exact in floating point), the negated
+        cosines come out without negations: -cos0 = e1.f2 / (l1 l2),
+        -cos1 = e12.e1 / (l12 l1), -cos2 = f2.e12 / (l2 l12), and the corner
+        cross product e1 x e2 = -(e1 x f2) -- bit for bit the same values.
+        """
         ux, uy, l12 = self.t_ux[r0:r1], self.t_uy[r0:r1], self.t_l12[r0:r1]
         ex1 = self.t_x1[r0:r1] - px
         ey1 = self.t_y1[r0:r1] - py
-        ex2 = self.t_x2[r0:r1] - px
-        ey2 = self.t_y2[r0:r1] - py
+        fx2 = px - self.t_x2[r0:r1]
+        fy2 = py - self.t_y2[r0:r1]
         l1 = np.sqrt(ex1 * ex1 + ey1 * ey1)
-        l2 = np.sqrt(ex2 * ex2 + ey2 * ey2)
-        ok = ex1 * ey2 - ey1 * ex2 > 0
-        cm = (ex1 * ex2 + ey1 * ey2) / (l1 * l2)
-        c1 = -(ux * ex1 + uy * ey1) / (l12 * l1)
-        np.maximum(c1, (ex2 * ux + ey2 * uy) / (l2 * l12), out=c1)
-        np.maximum(cm, c1, out=cm)
-        ok &= np.isfinite(cm)
-        np.negative(cm, out=cm)
-        cm[~ok] = np.inf
-        return cm, ok
+        l2 = np.sqrt(fx2 * fx2 + fy2 * fy2)
+        ok = ex1 * fy2 - ey1 * fx2 < 0
+        vals = (ex1 * fx2 + ey1 * fy2) / (l1 * l2)
+        np.minimum(vals, (ux * ex1 + uy * ey1) / (l12 * l1), out=vals)
+        np.minimum(vals, (fx2 * ux + fy2 * uy) / (l2 * l12), out=vals)
+        ok &= np.isfinite(vals)
+        if not ok.all():
+            vals[~ok] = np.inf
+        return vals, ok
 
     def _quad_chunk(self, px, py, r0, r1):
         """(-max |cos| of the four corners, valid) for quad rows r0:r1."""
@@ -261,7 +266,8 @@ class BlockGeometry:
         np.maximum(cm, c3, out=cm)
         ok &= np.isfinite(cm)
         np.negative(cm, out=cm)
-        cm[~ok] = np.inf
+        if not ok.all():
+            cm[~ok] = np.inf
         return cm, ok
 
     def area_range(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
