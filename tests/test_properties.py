@@ -237,3 +237,17 @@ def test_guarded_smoothing_untangles_a_single_fold(method):
         assert after < before
     else:  # the compass search starts at the folded position and never finds a better one (see BAD_INPUTS.md)
         assert after == before
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+def test_mesh2d_refuses_non_finite_coordinates(value):
+    """The library API, not only the file reader, refuses NaN / inf (a smoother would carry them to the output)."""
+    from anglesmooth.errors import InvalidMeshError
+
+    m = gen.structured_triangles(4, 4)
+    pts = m.points.copy()
+    pts[12, 1] = value
+    with pytest.raises(InvalidMeshError, match="node 12 has a non-finite coordinate"):
+        m.with_points(pts)
+    with pytest.raises(InvalidMeshError, match="node 12 has a non-finite coordinate"):
+        Mesh2D.from_arrays(pts, triangles=m.triangles)

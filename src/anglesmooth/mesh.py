@@ -87,6 +87,10 @@ class Mesh2D:
         if pts.ndim != 2 or pts.shape[1] != 2:
             raise InvalidMeshError(f"points must have shape (N, 2), got {pts.shape}")
         n = pts.shape[0]
+        finite = np.isfinite(pts).all(axis=1)
+        if not finite.all():
+            i = int(np.flatnonzero(~finite)[0])
+            raise InvalidMeshError(f"node {i} has a non-finite coordinate {pts[i].tolist()}")
         tri = np.asarray(self.triangles, dtype=np.int64).reshape(-1, 3)
         quad = np.asarray(self.quads, dtype=np.int64).reshape(-1, 4)
         set_ = object.__setattr__
