@@ -330,9 +330,25 @@ def angle_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
     """
     a0 = blk.nodes.start
     sl = blk.spokes
-    rel = topo.spoke_loc[sl] - a0
     n = blk.size
     cur = np.take(points, topo.free_nodes[blk.nodes], axis=0)
+    out = np.empty((n, 2))
+    # node-aligned chunks of about _CHUNK spokes: the temporaries stay in cache, and
+    # every node's spokes are summed in the same order as by one bincount
+    offs = np.zeros(n + 1, np.int64)
+    np.cumsum(blk.spoke_count, out=offs[1:])
+    cuts = np.searchsorted(offs, np.arange(0, offs[-1], _CHUNK), side="right") - 1
+    cuts = np.unique(np.concatenate([[0], cuts[cuts < n], [n]]))
+    for n0, n1 in zip(cuts[:-1].tolist(), cuts[1:].tolist()):
+        chunk = slice(sl.start + int(offs[n0]), sl.start + int(offs[n1]))
+        out[n0:n1] = _angle_sums(points, topo, chunk, topo.spoke_loc[chunk] - (a0 + n0), cur[n0:n1])
+    out /= blk.spoke_count[:, None]
+    return out
+
+
+def _angle_sums(points: np.ndarray, topo: Topology, sl: slice, rel: np.ndarray, cur: np.ndarray) -> np.ndarray:
+    """Per node (rows of ``cur``), the sum over its spokes ``sl`` of the rotated positions."""
+    n = cur.shape[0]
     cx, cy = np.take(cur[:, 0], rel), np.take(cur[:, 1], rel)
     pj = np.take(points, topo.spoke_ring[sl], axis=0)
     jx, jy = pj[:, 0], pj[:, 1]
@@ -374,7 +390,6 @@ def angle_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
     out = np.empty((n, 2))
     out[:, 0] = np.bincount(rel, weights=tx, minlength=n)
     out[:, 1] = np.bincount(rel, weights=ty, minlength=n)
-    out /= blk.spoke_count[:, None]
     return out
 
 
