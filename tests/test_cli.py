@@ -535,3 +535,40 @@ def test_signal_leaves_no_output(tmp_path, sig, code, message):
     assert proc.returncode == code, stderr
     assert stderr.decode().strip() == f"anglesmooth: error: {message}" and stdout == b""
     assert sorted(os.listdir(tmp_path)) == ["big.vtu"]
+
+
+# ------------------------------------------------------------------ nothing left behind
+
+
+def test_unwritable_json_path_fails_before_work_and_leaves_no_mesh(meshes, tmp_path, monkeypatch):
+    out = tmp_path / "out.vtu"
+    calls = []
+    monkeypatch.setattr(cli_module, "run_smooth", lambda *a, **k: calls.append(1))
+    result = run(meshes["msh"], out, "--json", tmp_path / "missing" / "r.json")
+    assert result.exit_code == 3
+    assert "cannot write JSON report" in one_error_line(result)
+    assert not out.exists() and calls == []  # refused before reading or smoothing
+
+
+def test_failed_mesh_write_leaves_no_json(meshes, tmp_path, monkeypatch):
+    out, rep = tmp_path / "out.vtu", tmp_path / "r.json"
+
+    def boom(*a, **k):
+        raise anglesmooth.MeshWriteError("cannot write 'out.vtu': disk full")
+
+    import anglesmooth.io
+
+    monkeypatch.setattr(anglesmooth.io, "write", boom)
+    result = run(meshes["msh"], out, "--json", rep)
+    assert result.exit_code == 3
+    assert "disk full" in one_error_line(result)
+    assert not out.exists() and not rep.exists()
+    assert sorted(os.listdir(tmp_path)) == []  # no staged temporary file either
+
+
+def test_output_under_a_regular_file_is_not_a_directory(meshes, tmp_path):
+    afile = tmp_path / "afile.txt"
+    afile.write_text("x")
+    result = run(meshes["msh"], afile / "out.vtu")
+    assert result.exit_code == 3
+    assert "is not a directory" in one_error_line(result)

@@ -350,3 +350,12 @@ def test_summarize_on_larger_structured_mesh():
     p, topo = topo_of(pts, triangles=tris)
     s = q.summarize(p, topo)
     assert s["triangles"] == 2 * n * n and s["min_angle"] == pytest.approx(45.0)
+
+
+def test_cell_with_coincident_nodes_has_zero_angles():
+    """A triangle whose three nodes coincide is degenerate: its angles are 0, not 180."""
+    p, topo = topo_of([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 0.0]], triangles=[[0, 1, 2], [1, 3, 3]])
+    s = q.summarize(p, topo)
+    assert s["min_angle"] == 0.0
+    assert s["degenerate"] == 1
+    assert s["angles_below_20"] == 3

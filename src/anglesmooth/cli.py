@@ -189,10 +189,26 @@ def _check_paths(input, output, *, force, in_place, input_format, output_format,
     if STDIO not in (input, output) and not (force or in_place) and _same_file(input, output):
         raise _Usage(f"OUTPUT '{output}' is the input file; pass --force or --in-place to overwrite it")
     if output != STDIO:
-        parent = Path(output).absolute().parent
-        if not parent.is_dir():
-            raise MeshWriteError(f"cannot write '{output}': directory '{parent}' does not exist")
+        _check_writable(output, "cannot write")
+    if json_path is not None and json_path != STDIO:
+        _check_writable(json_path, "cannot write JSON report")
     return output
+
+
+def _check_writable(path: str, what: str) -> None:
+    """Fail before any work if a file cannot be created in ``path``'s directory."""
+    parent = Path(path).absolute().parent
+    if not parent.exists():
+        raise MeshWriteError(f"{what} '{path}': directory '{parent}' does not exist")
+    if not parent.is_dir():
+        raise MeshWriteError(f"{what} '{path}': '{parent}' is not a directory")
+    if Path(path).is_dir():
+        raise MeshWriteError(f"{what} '{path}': it is a directory")
+    try:
+        with tempfile.NamedTemporaryFile(dir=parent, prefix=".anglesmooth-probe-"):
+            pass
+    except OSError as exc:
+        raise MeshWriteError(f"{what} '{path}': cannot create a file in '{parent}': {exc.strerror or exc}") from None
 
 
 def _same_file(a: str, b: str) -> bool:
@@ -262,23 +278,35 @@ def _report_gates(console: Console, name: str, gates: list[Gate]) -> bool:
 
 
 def _emit_json(json_path: str | None, document: dict) -> None:
+    """Write the JSON report to stdout, or atomically to a file."""
     if json_path is None:
         return
-    text = report.to_json(document) + "\n"
     if json_path == STDIO:
-        click.echo(text, nl=False)
+        click.echo(report.to_json(document))
         return
+    os.replace(_stage_json(json_path, document), json_path)
+
+
+def _stage_json(json_path: str, document: dict) -> Path:
+    """Write the JSON report to a temporary file beside ``json_path``; the caller renames it into place."""
+    target = Path(json_path)
+    fd, tmp = tempfile.mkstemp(dir=target.absolute().parent, prefix=f".{target.name}.", suffix=".tmp")
     try:
-        Path(json_path).write_text(text, encoding="utf-8")
-    except OSError as exc:
-        raise AngleSmoothError(f"cannot write JSON report '{json_path}': {exc.strerror or exc}") from None
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(report.to_json(document) + "\n")
+    except BaseException as exc:
+        Path(tmp).unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise MeshWriteError(f"cannot write JSON report '{json_path}': {exc.strerror or exc}") from None
+        raise
+    return Path(tmp)
 
 
 def _warn_invalid(console: Console, name: str, summary: dict) -> None:
     if summary["inverted"]:
         first = ", ".join(map(str, summary["inverted_cells"]))
         console.print(f"[yellow]warning:[/] {name}: the input has {summary['inverted']} inverted cell(s) "
-                      f"(first: {first}); smoothing never adds inverted cells but does not untangle them")
+                      f"(first: {first}); guarded smoothing never adds inverted cells and takes moves that remove them")
 
 
 @contextlib.contextmanager
@@ -410,18 +438,30 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
         result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
                             callback=callback)
     after = summarize(result.points, topo)
-    write_mesh(mesh, output, result.points, output_format)
     gates = evaluate(after, thresholds)
+    document = report.smooth_json(
+        input=name, output=out_name, method=method, guard=not no_guard, order=order, passes=result.passes,
+        passes_requested=passes, tol=tol, displacements=result.displacements, rejected=result.rejected,
+        before=before, after=after, elapsed_s=result.elapsed_s, gates=gates, passed=all(g.passed for g in gates))
+    # the JSON file is staged first and renamed after the mesh is written: an error in
+    # either leaves neither behind
+    staged = _stage_json(json_path, document) if json_path not in (None, STDIO) else None
+    try:
+        write_mesh(mesh, output, result.points, output_format)
+    except BaseException:
+        if staged is not None:
+            staged.unlink(missing_ok=True)
+        raise
+    if staged is not None:
+        os.replace(staged, json_path)
+    elif json_path == STDIO:
+        _emit_json(json_path, document)
     run = {"passes performed": f"{result.passes} / {passes}", "rejected moves": result.rejected,
            "last displacement": f"{result.displacements[-1] if result.displacements else 0:.3g} x mean edge",
            "time": f"{result.elapsed_s:.3f} s"}
     guard = "guarded" if not no_guard else "no guard"
     console.print(report.smooth_table(before, after, run, title=f"{name} -> {out_name}: {method}, {guard}, {order}"))
     passed = _report_gates(console, out_name, gates)
-    _emit_json(json_path, report.smooth_json(
-        input=name, output=out_name, method=method, guard=not no_guard, order=order, passes=result.passes,
-        passes_requested=passes, tol=tol, displacements=result.displacements, rejected=result.rejected,
-        before=before, after=after, elapsed_s=result.elapsed_s, gates=gates, passed=passed))
     if plot:
         from .plot import plot_smooth
 

@@ -148,7 +148,10 @@ def _corners(points: np.ndarray, cells: np.ndarray) -> _Corners:
     ang *= _R2D
     np.add(ang, 360.0, out=ang, where=ang < 0)
     np.minimum(ang, _BELOW_360, out=ang)  # -tiny + 360 rounds to 360
-    return _Corners(np.hypot(ex, ey), cross, ang)
+    length = np.hypot(ex, ey)
+    # a corner with a zero-length edge has no angle: call it 0 (atan2(0, -0) would say 180)
+    ang[(length == 0) | (np.roll(length, 1, axis=1) == 0)] = 0.0
+    return _Corners(length, cross, ang)
 
 
 def _cap(num: np.ndarray, den: np.ndarray) -> np.ndarray:
