@@ -70,8 +70,15 @@ def read(path: str | Path, *, file_format: str | None = None) -> Mesh2D:
     return _read(path, file_format=file_format)
 
 
-def write(mesh: Mesh2D, path: str | Path, *, points: np.ndarray | None = None, file_format: str | None = None) -> None:
+def write(
+    mesh: Mesh2D,
+    path: str | Path,
+    *,
+    points: np.ndarray | None = None,
+    file_format: str | None = None,
+    binary: bool | None = None,
+) -> None:
     """Write ``mesh`` (optionally with new ``points``) atomically (see :func:`anglesmooth.io.write`)."""
     from .io import write as _write
 
-    _write(mesh, path, points=points, file_format=file_format)
+    _write(mesh, path, points=points, file_format=file_format, binary=binary)
