@@ -14,10 +14,11 @@ Local score
     tri-quad meshes, a min-angle-only score leaves quad angles of 179 deg).
     No ``acos`` is needed.  A cell
     whose corner has a cross product <= 0 (inverted, degenerate, or a
-    non-convex quad) is *invalid*; a position with ``k`` invalid incident
-    cells scores ``-3 - k``, below every valid position, and fewer invalid cells
-    score higher (which is what lets guarded smoothing untangle a little and
-    never tangle more).
+    non-convex quad) is *invalid*; a position with ``i`` inverted (area <= 0)
+    and ``k`` other invalid incident cells scores ``-3 - 1000 i - k``, below
+    every valid position: fewer inverted cells first, then fewer invalid ones
+    score higher, which is what lets guarded smoothing untangle and never
+    tangle more.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import numpy as np
 from ..topology import Block, Topology
 
 INVALID = -3.0
+INVERTED_WEIGHT = 1000.0
 
 
 def _norm(v: np.ndarray) -> np.ndarray:
@@ -204,7 +206,10 @@ class BlockGeometry:
         best = np.full((K, self.n), np.inf)
         bad = np.zeros((K, self.n))
         with np.errstate(divide="ignore", invalid="ignore"):
-            for rows, kernel, rel in ((self._t, self._tri_chunk, self.t_rel), (self._q, self._quad_chunk, self.q_rel)):
+            for rows, kernel, area, rel in (
+                (self._t, self._tri_chunk, self._tri_area, self.t_rel),
+                (self._q, self._quad_chunk, self._quad_area, self.q_rel),
+            ):
                 for r0, r1, nodes, d in rows.chunks:
                     # small chunks take several candidates at once (fewer, larger numpy calls)
                     kb = max(1, _CHUNK // (r1 - r0))
@@ -215,8 +220,12 @@ class BlockGeometry:
                         vals, ok = kernel(px, py, r0, r1)
                         best[k0:k1, nodes] = np.minimum(best[k0:k1, nodes], _rowmin(vals, d))
                         if not ok.all():
+                            # an inverted cell (area <= 0) weighs more than any number of
+                            # other invalid (non-convex) cells: swapping one for the other
+                            # is never an improvement
+                            weight = np.where(area(px, py, r0, r1) > 0, 1.0, INVERTED_WEIGHT)[~ok]
                             kk, rr = np.nonzero(~ok)
-                            cnt = np.bincount(kk * self.n + rel[r0 + rr], minlength=(k1 - k0) * self.n)
+                            cnt = np.bincount(kk * self.n + rel[r0 + rr], weights=weight, minlength=(k1 - k0) * self.n)
                             bad[k0:k1] += cnt.reshape(k1 - k0, self.n)
         out = np.where(bad > 0, INVALID - bad, best)
         return out.reshape(lead + (self.n,))

@@ -128,8 +128,8 @@ def step(
             worst = np.argpartition(best, n_opt - 1)[:n_opt] if n_opt < blk.size else idx
             worst = np.sort(worst[best[worst] < -np.cos(np.radians(opt_below))])
         if n_opt and worst.size:
-            sub = BlockGeometry(pts, topo, blk, subset=worst)
-            scale = local_scale(pts, topo, blk)[worst]
+            sub = geom.restrict(worst)
+            scale = local_scale(pts, topo, blk, subset=worst)
             new[worst], _ = optimize(sub, new[worst], scale, opt_iterations, area_band=area_band)
         return new, refused
 
