@@ -131,11 +131,13 @@ def _with(p, i, x):
     return q
 
 
-def reference_pass(points, topo, method, guard=True, halvings=6):
+def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20.0):
     """One pass of ``method`` in the topology's colour order, node by node.
 
-    For ``angle`` with ``guard`` this is the robust candidate selection without
-    the local optimization of the worst nodes (``opt_iterations=0``).
+    For ``angle`` with ``guard`` this is the robust candidate selection (the
+    angle position when it is good and no worse than staying, else the best of
+    five candidates) without the local optimization of the worst nodes
+    (``opt_iterations=0``).
     """
     p = [list(map(float, x)) for x in points]
     cells = cells_of(topo)
@@ -162,6 +164,10 @@ def reference_pass(points, topo, method, guard=True, halvings=6):
         elif method == "angle":
             ang = angle_pos(p, i, inc[i])
             if not guard:
+                p[i] = ang
+                continue
+            q_ang, q_cur = local_min_angle(_with(p, i, ang), inc[i]), local_min_angle(p, inc[i])
+            if q_ang >= q_cur and q_ang >= math.radians(accept_above):
                 p[i] = ang
                 continue
             cands = [ang, lap, [(ang[0] + lap[0]) / 2, (ang[1] + lap[1]) / 2], [(ang[0] + cur[0]) / 2, (ang[1] + cur[1]) / 2], cur]
