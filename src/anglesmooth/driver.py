@@ -109,13 +109,15 @@ def smooth(
     e = topo.edges
     mean_edge = float(np.mean(np.hypot(*(pts[e[:, 1]] - pts[e[:, 0]]).T))) if e.shape[0] else 1.0
     mean_edge = mean_edge if mean_edge > 0 else 1.0
-    bad_before = invalid_cells(pts, topo) if guard else None
+    # the per-colour guard is exact; only simultaneous (Jacobi) moves need a whole-mesh check
+    recheck = guard and order != "colour"
+    bad_before = invalid_cells(pts, topo) if recheck else None
     displacements: list[float] = []
     rejected = reverted = 0
     done = 0
     for k in range(passes):
         new, rej = smoother.step(pts, topo, guard=guard, order=order, **options)
-        if guard and order != "colour":
+        if recheck:
             new, n_rev = _revert_new_invalid(pts, new, topo, bad_before)
             reverted += n_rev
         disp = float(np.sqrt(((new - pts) ** 2).sum(axis=1)).max()) / mean_edge if pts.shape[0] else 0.0
