@@ -139,9 +139,11 @@ Methods (all from `anglesmooth.smooth`, boundary nodes fixed):
 * **Angle-based, literal** — `guard=False` (`--no-guard`): the paper's Section 4 rule (rotate each spoke about its
   ring node onto the bisector — or the 3:2 split between a quad and a triangle corner — and average; quads also use
   their diagonal node at 45°), with no validity check.
-* **Angle-based, robust default** — `guard=True` (the library default): per node, the best of five candidates (angle
-  target, Laplacian target, their midpoint, the half step, the current position) by local minimum angle that inverts
-  nothing, then a few steps of local max-min-angle optimization for the worst ~5 % of nodes. This is a *hybrid* that
+* **Angle-based, robust default** — `guard=True` (the library default): per node, the angle target where its
+  cells' smallest angle there is at least 20° and no worse than staying; otherwise the best of five candidates
+  (angle target, Laplacian target, their midpoint, the half step, the current position) by local minimum angle
+  (quads: `min(angle, 180° - angle)`) that inverts nothing; then a few steps of area-constrained local
+  max-min-angle optimization for the worst ~5 % of nodes (if below 40°). This is a *hybrid* that
   goes beyond the paper; it is shown to say what a user gets by default.
 * **Optimization-based** — local max-min-angle compass search per node (10 iterations per pass), the quality
   reference; not in the paper's tables.
@@ -527,8 +529,8 @@ def _cost(res):
            "expressions over the incident cells, while the angle rule gathers every ring node and its two side "
            "neighbours per spoke, so memory traffic rather than arithmetic sets the cost. ")
         + f"The robust default costs {m['angle-default']['relative']:.1f}× Laplacian "
-        f"({m['angle-default']['median_s'] / m['angle-literal']['median_s']:.1f}× the literal rule): it evaluates five "
-        "candidates per node and optimizes the worst nodes. Guarded Laplacian costs "
+        f"({m['angle-default']['median_s'] / m['angle-literal']['median_s']:.1f}× the literal rule): it scores the angle "
+        "and current positions of every node, five candidates for the poorly placed ones, and optimizes the worst nodes. Guarded Laplacian costs "
         f"{m['laplacian-guarded']['relative']:.1f}×, since the guard re-evaluates the incident cells of every moved node.\n"
     )
     return "\n".join(out)
