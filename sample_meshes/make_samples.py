@@ -146,6 +146,17 @@ def _stats():
 # --------------------------------------------------------------------------
 # the samples
 # --------------------------------------------------------------------------
+def _finish(path: Path, *, jitter: float, seed: int, msh_version: float):
+    """Jitter the interior nodes, write the model as ASCII MSH of the given version, return its statistics."""
+    _jitter_model(jitter, seed=seed)
+    gmsh.option.setNumber("Mesh.MshFileVersion", msh_version)
+    gmsh.option.setNumber("Mesh.Binary", 0)
+    st = _stats()
+    gmsh.write(str(path))
+    gmsh.finalize()
+    return st
+
+
 def plate_with_hole_tri(out: Path):
     """(a) MSH 2.2 ASCII, triangles: a 10 x 5 plate with an off-centre hole, strongly graded, jittered."""
     _start()
@@ -185,13 +196,7 @@ def plate_with_hole_tri(out: Path):
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
     gmsh.option.setNumber("Mesh.Algorithm", 5)  # Delaunay
     gmsh.model.mesh.generate(2)
-    _jitter_model(0.35, seed=1)
-    gmsh.option.setNumber("Mesh.MshFileVersion", 2.2)
-    gmsh.option.setNumber("Mesh.Binary", 0)
-    st = _stats()
-    gmsh.write(str(out / "plate_with_hole_tri.msh"))
-    gmsh.finalize()
-    return st
+    return _finish(out / "plate_with_hole_tri.msh", jitter=0.35, seed=1, msh_version=2.2)
 
 
 def bracket_quads(out: Path):
@@ -220,13 +225,7 @@ def bracket_quads(out: Path):
     gmsh.option.setNumber("Mesh.RecombineAll", 1)
     gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 3)  # blossom full-quad
     gmsh.model.mesh.generate(2)
-    _jitter_model(0.3, seed=2)
-    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-    gmsh.option.setNumber("Mesh.Binary", 0)
-    st = _stats()
-    gmsh.write(str(out / "bracket_quads.msh"))
-    gmsh.finalize()
-    return st
+    return _finish(out / "bracket_quads.msh", jitter=0.3, seed=2, msh_version=4.1)
 
 
 def two_regions_mixed(out: Path):
@@ -268,13 +267,7 @@ def two_regions_mixed(out: Path):
     gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 1)  # blossom (may leave a few triangles)
     gmsh.model.mesh.setRecombine(2, sl)
     gmsh.model.mesh.generate(2)
-    _jitter_model(0.3, seed=3)
-    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-    gmsh.option.setNumber("Mesh.Binary", 0)
-    st = _stats()
-    gmsh.write(str(out / "two_regions_mixed.msh"))
-    gmsh.finalize()
-    return st
+    return _finish(out / "two_regions_mixed.msh", jitter=0.3, seed=3, msh_version=4.1)
 
 
 def channel_tri(out: Path):
