@@ -426,17 +426,6 @@ def local_scale(points: np.ndarray, topo: Topology, blk: Block, subset: np.ndarr
 # selection and local optimization
 
 
-def pick_best(geom: BlockGeometry, cands: np.ndarray):
-    """Choose, per node, the candidate with the best score (first one on ties).
-
-    ``cands`` is (K, n, 2); returns (positions (n, 2), index (n,), score (n,)).
-    """
-    s = geom.score(cands)
-    k = np.argmax(s, axis=0)
-    idx = np.arange(cands.shape[1])
-    return cands[k, idx], k, s[k, idx]
-
-
 def first_valid(geom: BlockGeometry, current: np.ndarray, target: np.ndarray, halvings: int = 6):
     """Guard: the target, or the move halved until no incident cell becomes invalid.
 
