@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .mesh import Mesh2D, place_high_order
+from .quality import invalid_cells
 from .smoothers import get_smoother
-from .smoothers._local import invalid_cells
 from .topology import Topology, build_topology
 
 __all__ = ["SmoothResult", "smooth"]

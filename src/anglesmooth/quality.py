@@ -80,6 +80,7 @@ __all__ = [
     "cell_max_angles",
     "cell_min_angles",
     "corner_angles",
+    "invalid_cells",
     "inverted_cells",
     "nonconvex_quads",
     "quad_aspect_ratio",
@@ -288,6 +289,25 @@ def inverted_cells(points: np.ndarray, topo: Topology) -> np.ndarray:
     [0]
     """
     return np.flatnonzero(cell_areas(points, topo) <= 0)
+
+
+def invalid_cells(points: np.ndarray, topo: Topology) -> np.ndarray:
+    """Mask (triangles, then quads) of cells a guarded smoother must not create.
+
+    A cell is invalid when some corner has ``cross(next - v, prev - v) <= 0``
+    (or NaN): inverted and degenerate cells, and non-convex quads.
+
+    Examples
+    --------
+    >>> from anglesmooth.mesh import Mesh2D
+    >>> from anglesmooth.topology import build_topology
+    >>> dart = Mesh2D.from_arrays([[0, 0], [2, 1], [0, 2], [0.5, 1]], quads=[[0, 1, 2, 3]])
+    >>> invalid_cells(dart.points, build_topology(dart)).tolist()
+    [True]
+    """
+    return np.concatenate(
+        [~(_corners(points, cells).cross > 0).all(axis=1) for cells in (topo.tri, topo.quad)]
+    )
 
 
 def nonconvex_quads(points: np.ndarray, topo: Topology) -> np.ndarray:

@@ -31,10 +31,6 @@ INVALID = -3.0
 INVERTED_WEIGHT = 1000.0
 
 
-def _norm(v: np.ndarray) -> np.ndarray:
-    return np.sqrt(v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1])
-
-
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
 
@@ -85,20 +81,12 @@ class _Rows:
                 r += (k1 - k0) * d
 
 
-def _rowmin(vals: np.ndarray, d: int) -> np.ndarray:
-    """Minimum of every ``d`` consecutive values along the last axis: (..., m * d) -> (..., m)."""
+def _rowreduce(vals: np.ndarray, d: int, ufunc=np.minimum) -> np.ndarray:
+    """``ufunc``-reduce every ``d`` consecutive values along the last axis: (..., m * d) -> (..., m)."""
     w = vals.reshape(vals.shape[:-1] + (-1, d))
     out = w[..., 0].copy()
     for j in range(1, d):
-        np.minimum(out, w[..., j], out=out)
-    return out
-
-
-def _rowmax(vals: np.ndarray, d: int) -> np.ndarray:
-    w = vals.reshape(vals.shape[:-1] + (-1, d))
-    out = w[..., 0].copy()
-    for j in range(1, d):
-        np.maximum(out, w[..., j], out=out)
+        ufunc(out, w[..., j], out=out)
     return out
 
 
@@ -218,7 +206,7 @@ class BlockGeometry:
                         px = np.repeat(x0[k0:k1, nodes], d, axis=1)
                         py = np.repeat(y0[k0:k1, nodes], d, axis=1)
                         vals, ok = kernel(px, py, r0, r1)
-                        best[k0:k1, nodes] = np.minimum(best[k0:k1, nodes], _rowmin(vals, d))
+                        best[k0:k1, nodes] = np.minimum(best[k0:k1, nodes], _rowreduce(vals, d))
                         if not ok.all():
                             # an inverted cell (area <= 0) weighs more than any number of
                             # other invalid (non-convex) cells: swapping one for the other
@@ -294,8 +282,8 @@ class BlockGeometry:
                 for k0 in range(0, K, kb):
                     k1 = min(k0 + kb, K)
                     ar = area(np.repeat(x0[k0:k1, nodes], d, axis=1), np.repeat(y0[k0:k1, nodes], d, axis=1), r0, r1)
-                    lo[k0:k1, nodes] = np.minimum(lo[k0:k1, nodes], _rowmin(ar, d))
-                    hi[k0:k1, nodes] = np.maximum(hi[k0:k1, nodes], _rowmax(ar, d))
+                    lo[k0:k1, nodes] = np.minimum(lo[k0:k1, nodes], _rowreduce(ar, d))
+                    hi[k0:k1, nodes] = np.maximum(hi[k0:k1, nodes], _rowreduce(ar, d, np.maximum))
         return lo.reshape(lead + (self.n,)), hi.reshape(lead + (self.n,))
 
     def _tri_area(self, px, py, r0, r1):
@@ -502,17 +490,3 @@ def optimize(
 
 
 _COMPASS = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)], axis=1)
-
-
-def invalid_cells(points: np.ndarray, topo: Topology) -> np.ndarray:
-    """Mask (n_tri + n_quad,) of cells with a corner cross product <= 0 (inverted, degenerate, non-convex)."""
-    out = np.zeros(topo.n_tri + topo.n_quad, bool)
-    if topo.n_tri:
-        p = points[topo.tri]
-        out[: topo.n_tri] = ~(_cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]) > 0)
-    if topo.n_quad:
-        p = points[topo.quad]
-        nxt = np.roll(p, -1, axis=1) - p
-        prv = np.roll(p, 1, axis=1) - p
-        out[topo.n_tri :] = ~(_cross(nxt, prv) > 0).all(axis=1)
-    return out
