@@ -33,6 +33,7 @@ from .errors import AngleSmoothError, GateFileError, MeshWriteError
 from .gates import Gate, evaluate, resolve_thresholds
 from .quality import cell_areas, cell_min_angles, summarize
 from .smoothers import SMOOTHERS
+from .smoothers._fast import kernel_mode
 from .topology import build_topology
 
 __all__ = ["cli", "main"]
@@ -424,6 +425,7 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
     output = _check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
                           output_format=output_format, json_path=json_path)
     thresholds, exit_zero = _thresholds(gate_opts)
+    kernel_mode()  # a bad ANGLESMOOTH_KERNEL is a usage error before any work
     if plot:
         from .plot import require_matplotlib
 
@@ -541,6 +543,7 @@ def _check_one(path: str, input_format, thresholds: dict, debug: bool) -> tuple[
 def compare_cmd(input, passes, no_guard, order, input_format, json_path, plot, quiet, debug) -> None:
     """Run every registered method on INPUT and print one table (like the paper's Tables 1-2)."""
     console = _console(quiet)
+    kernel_mode()  # a bad ANGLESMOOTH_KERNEL is a usage error before any work
     if plot:
         from .plot import require_matplotlib
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 __all__ = [
     "AngleSmoothError",
+    "ConfigurationError",
     "GateFileError",
     "InvalidMeshError",
     "MeshReadError",
@@ -48,5 +49,11 @@ class UnknownMethodError(AngleSmoothError):
 
 class GateFileError(AngleSmoothError):
     """A quality-gate file that cannot be used (unreadable, invalid TOML, unknown key, bad value)."""
+
+    exit_code = 2
+
+
+class ConfigurationError(AngleSmoothError):
+    """A setting from the environment that cannot be used (e.g. ``ANGLESMOOTH_KERNEL``)."""
 
     exit_code = 2

@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..topology import Block, Topology
+from . import _fast
 
 INVALID = -3.0
 INVERTED_WEIGHT = 1000.0
@@ -218,6 +219,11 @@ class BlockGeometry:
         out = np.where(bad > 0, INVALID - bad, best)
         return out.reshape(lead + (self.n,))
 
+    def banded_score(self, X: np.ndarray, lo0: np.ndarray, hi0: np.ndarray) -> np.ndarray:
+        """The score at ``X`` where every incident area stays within [lo0, hi0] (per node), -inf elsewhere."""
+        lo, hi = self.area_range(X)
+        return np.where((lo >= lo0) & (hi <= hi0), self.score(X), -np.inf)
+
     def _tri_chunk(self, px, py, r0, r1):
         """(-max cos of the three corners, valid) for triangle rows r0:r1.
 
@@ -298,12 +304,21 @@ class BlockGeometry:
         return 0.5 * (dx * fy - dy * fx)
 
 
+def geometry(points: np.ndarray, topo: Topology, blk: Block):
+    """The block's geometry: a :class:`BlockGeometry`, or its compiled twin on large meshes (see :mod:`._fast`)."""
+    if _fast.active(topo):
+        return _fast.FastGeometry(points, topo, blk)
+    return BlockGeometry(points, topo, blk)
+
+
 # --------------------------------------------------------------------------
 # targets
 
 
 def laplacian_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
     """Centroid of the edge neighbours of each block node, (n, 2)."""
+    if _fast.active(topo):
+        return _fast.laplacian_target(points, topo, blk)
     a = blk.nodes.start
     rel = topo.ring_loc[blk.ring] - a
     nb = np.take(points, topo.ring_nbr[blk.ring], axis=0)
@@ -325,6 +340,8 @@ def angle_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
     Equal splits use the exact bisector ``rot90(u_a - u_b)`` (no trigonometry);
     only unequal splits (quad beside triangle) use atan2/cos/sin.
     """
+    if _fast.active(topo):
+        return _fast.angle_target(points, topo, blk)
     a0 = blk.nodes.start
     sl = blk.spokes
     n = blk.size
@@ -392,6 +409,8 @@ def _angle_sums(points: np.ndarray, topo: Topology, sl: slice, rel: np.ndarray, 
 
 def local_scale(points: np.ndarray, topo: Topology, blk: Block, subset: np.ndarray | None = None) -> np.ndarray:
     """Mean length of the edges at each block node, (n,), or at the block-local nodes ``subset`` only."""
+    if _fast.active(topo):
+        return _fast.local_scale(points, topo, blk, subset)
     a = blk.nodes.start
     loc = topo.ring_loc[blk.ring]
     nbr = topo.ring_nbr[blk.ring]
@@ -476,10 +495,7 @@ def optimize(
     idx = np.arange(x.shape[0])
     for _ in range(iterations):
         cands = x[None] + _COMPASS[:, None, :] * r[None, :, None]
-        sc = geom.score(cands)
-        if area_band is not None:
-            lo, hi = geom.area_range(cands)
-            sc = np.where((lo >= lo0) & (hi <= hi0), sc, -np.inf)
+        sc = geom.score(cands) if area_band is None else geom.banded_score(cands, lo0, hi0)
         k = np.argmax(sc, axis=0)
         sk = sc[k, idx]
         better = sk > s0

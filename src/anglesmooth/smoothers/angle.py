@@ -71,7 +71,7 @@ import numpy as np
 
 from ..topology import Topology
 from ._blocks import StepResult, run_blocks
-from ._local import INVALID, BlockGeometry, angle_target, first_valid, laplacian_target, local_scale, optimize
+from ._local import INVALID, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
 
 __all__ = ["step"]
 
@@ -121,7 +121,7 @@ def step(
         target = angle_target(pts, topo, blk)
         if not guard:
             return target, 0
-        geom = BlockGeometry(pts, topo, blk)
+        geom = geometry(pts, topo, blk)
         if not hybrid:
             new, refused = first_valid(geom, cur, target)
             return new, refused.sum()

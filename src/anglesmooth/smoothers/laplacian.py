@@ -23,7 +23,7 @@ import numpy as np
 
 from ..topology import Topology
 from ._blocks import StepResult, run_blocks
-from ._local import BlockGeometry, first_valid, laplacian_target
+from ._local import first_valid, geometry, laplacian_target
 
 __all__ = ["step"]
 
@@ -35,7 +35,7 @@ def step(points: np.ndarray, topo: Topology, /, *, guard: bool = True, order: st
         target = laplacian_target(pts, topo, blk)
         if not guard:
             return target, 0
-        new, refused = first_valid(BlockGeometry(pts, topo, blk), cur, target)
+        new, refused = first_valid(geometry(pts, topo, blk), cur, target)
         return new, refused.sum()
 
     return run_blocks(points, topo, order, update)

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..topology import Topology
 from ._blocks import StepResult, run_blocks
-from ._local import BlockGeometry, local_scale, optimize
+from ._local import geometry, local_scale, optimize
 
 __all__ = ["step"]
 
@@ -39,7 +39,7 @@ def step(
     """One pass of local max-min-angle optimization over all free nodes."""
 
     def update(pts, blk, cur):
-        geom = BlockGeometry(pts, topo, blk)
+        geom = geometry(pts, topo, blk)
         new, _ = optimize(geom, cur, local_scale(pts, topo, blk), iterations)
         return new, 0
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..topology import Topology
 from ._blocks import StepResult, run_blocks
-from ._local import BlockGeometry, laplacian_target
+from ._local import geometry, laplacian_target
 
 __all__ = ["step"]
 
@@ -33,7 +33,7 @@ def step(points: np.ndarray, topo: Topology, /, *, guard: bool = True, order: st
 
     def update(pts, blk, cur):
         target = laplacian_target(pts, topo, blk)
-        s = BlockGeometry(pts, topo, blk).score(np.stack([target, cur]))
+        s = geometry(pts, topo, blk).score(np.stack([target, cur]))
         take = s[0] > s[1]
         moved = (target != cur).any(axis=1)
         return np.where(take[:, None], target, cur), int((moved & ~take).sum())

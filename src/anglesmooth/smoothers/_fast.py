@@ -1,0 +1,188 @@
+"""Compiled (numba) versions of the per-block kernels of :mod:`._local`, for large meshes.
+
+Why a compiled kernel
+    The numpy kernels evaluate the local score of a block's nodes row by row
+    (one incident cell per row): about 25 array operations per triangle row and
+    candidate, each streaming through memory, and the gathers of the fixed
+    vertices of every row before that.  On a 1M-triangle mesh that is where a
+    default ``angle`` pass spends most of its time (0.41 s of 0.93 s scoring,
+    0.15 s gathering), already with cache-sized chunks.  The loops here read
+    the vertices straight from the point array through the topology's tables,
+    keep every intermediate in registers and need no gather, no temporaries
+    and no per-chunk Python overhead (see ``benchmarks/README.md`` for the
+    measured figures).
+
+Same numbers
+    Every function computes the same floating-point operations in the same
+    order as its numpy twin in :mod:`._local` (no fast-math, so no fused
+    multiply-adds), and sums in the same order as ``np.bincount``: the
+    results are bit-identical, except that the 3:2 angle split of a spoke
+    between a quad and a triangle uses the C library's ``atan2``/``cos``/``sin``
+    where numpy may use its own vectorized ones (equal to round-off).
+    ``tests/test_kernels.py`` checks both against each other.
+
+When
+    :func:`active` decides per topology: with the environment variable
+    ``ANGLESMOOTH_KERNEL`` unset or ``auto``, the compiled kernels run when
+    numba is installed (the ``fast`` extra) and the mesh has at least
+    :data:`AUTO_MIN_FREE` free nodes, so small meshes never wait for a
+    compilation or for numba's import; ``numpy`` or ``numba`` force one.  The
+    compiled code is cached on disk by numba after its first use.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..errors import ConfigurationError
+
+__all__ = ["AUTO_MIN_FREE", "FastGeometry", "active", "angle_target", "laplacian_target", "local_scale"]
+
+#: Smallest number of free nodes for which ``auto`` uses the compiled kernels.
+AUTO_MIN_FREE = 100_000
+
+_ENV = "ANGLESMOOTH_KERNEL"
+_kernels = None  # the compiled module, imported on first use
+
+
+def _numba_available() -> bool:
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def kernel_mode() -> str:
+    """The requested kernel: ``auto``, ``numpy`` or ``numba`` (from ``ANGLESMOOTH_KERNEL``)."""
+    mode = os.environ.get(_ENV, "auto").strip().lower() or "auto"
+    if mode not in ("auto", "numpy", "numba"):
+        raise ConfigurationError(f"{_ENV}={mode!r} is not one of auto, numpy, numba")
+    if mode == "numba" and not _numba_available():
+        raise ConfigurationError(f"{_ENV}=numba but numba is not installed (pip install 'anglesmooth[fast]')")
+    return mode
+
+
+def active(topo) -> bool:
+    """True when the compiled kernels should run for this topology (see the module docstring)."""
+    mode = kernel_mode()
+    if mode == "numpy":
+        return False
+    if mode == "numba":
+        return True
+    key = ("fast-auto",)
+    hit = topo._cache.get(key)
+    if hit is None:
+        hit = topo._cache[key] = topo.n_free >= AUTO_MIN_FREE and _numba_available()
+    return hit
+
+
+def _k():
+    global _kernels
+    if _kernels is None:
+        from . import _fastkernels
+
+        _kernels = _fastkernels
+    return _kernels
+
+
+def _csr(topo):
+    """Row pointers of the per-node tables (ring, spokes, triangles, quads) over all free nodes, cached."""
+    hit = topo._cache.get(("csr",))
+    if hit is None:
+        f = np.arange(topo.n_free + 1)
+        hit = topo._cache[("csr",)] = tuple(
+            np.searchsorted(loc, f).astype(np.int64) for loc in (topo.ring_loc, topo.spoke_loc, topo.tri_loc, topo.quad_loc)
+        )
+    return hit
+
+
+def _nodes(blk) -> np.ndarray:
+    return np.arange(blk.nodes.start, blk.nodes.stop, dtype=np.int64)
+
+
+def angle_target(points: np.ndarray, topo, blk) -> np.ndarray:
+    """Compiled :func:`._local.angle_target`."""
+    _, sp, _, _ = _csr(topo)
+    return _k().angle_target(
+        points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac
+    )
+
+
+def laplacian_target(points: np.ndarray, topo, blk) -> np.ndarray:
+    """Compiled :func:`._local.laplacian_target`."""
+    rp, _, _, _ = _csr(topo)
+    return _k().ring_mean(points, _nodes(blk), topo.free_nodes, rp, topo.ring_nbr, False)
+
+
+def local_scale(points: np.ndarray, topo, blk, subset: np.ndarray | None = None) -> np.ndarray:
+    """Compiled :func:`._local.local_scale`."""
+    rp, _, _, _ = _csr(topo)
+    nodes = _nodes(blk)
+    if subset is not None:
+        nodes = nodes[subset]
+    return _k().ring_mean(points, nodes, topo.free_nodes, rp, topo.ring_nbr, True)[:, 0]
+
+
+class FastGeometry:
+    """Compiled twin of :class:`._local.BlockGeometry`: the same methods, no gathered copies.
+
+    It keeps a reference to ``points`` (which must not change while it is
+    used: the block loop writes a block's moves only after its update) and
+    the free-node indices it scores.
+    """
+
+    def __init__(self, points: np.ndarray, topo, blk, nodes: np.ndarray | None = None):
+        self._pts = points
+        self._topo = topo
+        self._nodes = _nodes(blk) if nodes is None else nodes
+        self.n = self._nodes.shape[0]
+
+    def restrict(self, subset: np.ndarray) -> FastGeometry:
+        g = object.__new__(FastGeometry)
+        g._pts, g._topo, g._nodes = self._pts, self._topo, self._nodes[subset]
+        g.n = g._nodes.shape[0]
+        return g
+
+    def _call(self, fn, X, *extra):
+        t = self._topo
+        _, _, tp, qp = _csr(t)
+        X = np.asarray(X, dtype=np.float64)
+        lead = X.shape[:-2]
+        Xf = np.ascontiguousarray(X.reshape((-1, self.n, 2)))
+        out = fn(self._pts, Xf, self._nodes, tp, t.tri_verts, qp, t.quad_verts, *extra)
+        return lead, out
+
+    def score(self, X: np.ndarray) -> np.ndarray:
+        lead, s = self._call(_k().score, X)
+        return s.reshape(lead + (self.n,))
+
+    def area_range(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lead, (lo, hi) = self._call(_k().area_range, X)
+        return lo.reshape(lead + (self.n,)), hi.reshape(lead + (self.n,))
+
+    def banded_score(self, X: np.ndarray, lo0: np.ndarray, hi0: np.ndarray) -> np.ndarray:
+        lead, s = self._call(_k().banded_score, X, lo0, hi0)
+        return s.reshape(lead + (self.n,))
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) every kernel on a tiny mesh."""
+    from ..generate import structured_quads, structured_triangles
+    from ..mesh import Mesh2D
+    from ..topology import build_topology
+
+    t, q = structured_triangles(4, 4), structured_quads(4, 4)
+    n = t.points.shape[0]
+    m = Mesh2D.from_arrays(
+        np.concatenate([t.points, q.points + [5.0, 0.0]]), triangles=t.triangles, quads=q.quads + n
+    )
+    topo = build_topology(m)
+    for blk in topo.blocks():
+        g = FastGeometry(m.points, topo, blk)
+        x = m.points[topo.free_nodes[blk.nodes]]
+        g.score(x), g.area_range(x), g.banded_score(x, *g.area_range(x))
+        angle_target(m.points, topo, blk), laplacian_target(m.points, topo, blk), local_scale(m.points, topo, blk)
+

@@ -1,0 +1,210 @@
+"""The numba kernels behind :mod:`._fast` (imported only when they are used).
+
+Each loop mirrors, operation for operation, the numpy expression it replaces
+in :mod:`._local` (named in each docstring); keep the two in step.  Loops over
+nodes run in parallel (``prange``): a node writes only its own outputs.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+_OPTS = dict(cache=True, error_model="numpy", parallel=True, nogil=True)
+
+INVALID = -3.0
+INVERTED_WEIGHT = 1000.0
+_TWO_PI = 2 * np.pi
+
+
+@njit(inline="always")
+def _node_score(pts, px, py, f, tp, tv, qp, qv):
+    """``BlockGeometry.score`` for one node (free index ``f``) at (px, py): ``_tri_chunk`` / ``_quad_chunk``."""
+    best = np.inf
+    bad = 0.0
+    for r in range(tp[f], tp[f + 1]):
+        i1, i2 = tv[r, 1], tv[r, 2]
+        x1, y1, x2, y2 = pts[i1, 0], pts[i1, 1], pts[i2, 0], pts[i2, 1]
+        ux, uy = x2 - x1, y2 - y1
+        l12 = math.sqrt(ux * ux + uy * uy)
+        ex1, ey1 = x1 - px, y1 - py
+        fx2, fy2 = px - x2, py - y2
+        l1 = math.sqrt(ex1 * ex1 + ey1 * ey1)
+        l2 = math.sqrt(fx2 * fx2 + fy2 * fy2)
+        v0 = (ex1 * fx2 + ey1 * fy2) / (l1 * l2)
+        v1 = (ux * ex1 + uy * ey1) / (l12 * l1)
+        v2 = (fx2 * ux + fy2 * uy) / (l2 * l12)
+        v = min(v0, v1, v2)
+        # valid: corner cross product < 0 and np.minimum(v0, v1, v2) finite (a NaN propagates there);
+        # bitwise & keeps the test free of branches
+        if (ex1 * fy2 - ey1 * fx2 < 0) & (v0 == v0) & (v1 == v1) & (v2 == v2) & (abs(v) < np.inf):
+            best = min(best, v)
+        else:
+            ex2, ey2 = x2 - px, y2 - py
+            bad += 1.0 if 0.5 * (ex1 * ey2 - ey1 * ex2) > 0 else INVERTED_WEIGHT
+    for r in range(qp[f], qp[f + 1]):
+        i1, i2, i3 = qv[r, 1], qv[r, 2], qv[r, 3]
+        x1, y1, x2, y2, x3, y3 = pts[i1, 0], pts[i1, 1], pts[i2, 0], pts[i2, 1], pts[i3, 0], pts[i3, 1]
+        ux, uy = x2 - x1, y2 - y1
+        vx, vy = x3 - x2, y3 - y2
+        l12 = math.sqrt(ux * ux + uy * uy)
+        l23 = math.sqrt(vx * vx + vy * vy)
+        c2 = vx * -uy - vy * -ux
+        cos2 = (vx * -ux + vy * -uy) / (l23 * l12)
+        ok2 = (c2 > 0) & (abs(cos2) < np.inf)
+        qc2 = abs(cos2) if ok2 else 1.0
+        ex1, ey1 = x1 - px, y1 - py
+        ex3, ey3 = x3 - px, y3 - py
+        l1 = math.sqrt(ex1 * ex1 + ey1 * ey1)
+        l3 = math.sqrt(ex3 * ex3 + ey3 * ey3)
+        a0 = abs((ex1 * ex3 + ey1 * ey3) / (l1 * l3))
+        a1 = abs((ux * ex1 + uy * ey1) / (l12 * l1))
+        a3 = abs((ex3 * vx + ey3 * vy) / (l3 * l23))
+        cm = max(a0, a1, a3, qc2)
+        # valid: the three corner cross products > 0, corner 2 valid, and every |cos| finite
+        # (x < inf is False for NaN and inf; np.maximum would propagate either)
+        ok = (ex1 * ey3 - ey1 * ex3 > 0) & (uy * ex1 - ux * ey1 > 0) & (ex3 * vy - ey3 * vx > 0) & ok2
+        if ok & (a0 < np.inf) & (a1 < np.inf) & (a3 < np.inf):
+            best = min(best, -cm)
+        else:
+            dx, dy = x1 + ux - px, y1 + uy - py
+            fx, fy = x3 - x1, y3 - y1
+            bad += 1.0 if 0.5 * (dx * fy - dy * fx) > 0 else INVERTED_WEIGHT
+    return INVALID - bad if bad > 0 else best
+
+
+@njit(inline="always")
+def _node_area_range(pts, px, py, f, tp, tv, qp, qv):
+    """``BlockGeometry.area_range`` for one node: ``_tri_area`` / ``_quad_area``."""
+    lo = np.inf
+    hi = -np.inf
+    for r in range(tp[f], tp[f + 1]):
+        i1, i2 = tv[r, 1], tv[r, 2]
+        ex1, ey1 = pts[i1, 0] - px, pts[i1, 1] - py
+        ex2, ey2 = pts[i2, 0] - px, pts[i2, 1] - py
+        a = 0.5 * (ex1 * ey2 - ey1 * ex2)
+        lo = min(lo, a)
+        hi = max(hi, a)
+    for r in range(qp[f], qp[f + 1]):
+        i1, i2, i3 = qv[r, 1], qv[r, 2], qv[r, 3]
+        x1, y1 = pts[i1, 0], pts[i1, 1]
+        ux, uy = pts[i2, 0] - x1, pts[i2, 1] - y1
+        dx, dy = x1 + ux - px, y1 + uy - py
+        fx, fy = pts[i3, 0] - x1, pts[i3, 1] - y1
+        a = 0.5 * (dx * fy - dy * fx)
+        lo = min(lo, a)
+        hi = max(hi, a)
+    return lo, hi
+
+
+@njit(**_OPTS)
+def score(pts, X, nodes, tp, tv, qp, qv):
+    K, n = X.shape[0], X.shape[1]
+    out = np.empty((K, n))
+    for i in prange(n):
+        f = nodes[i]
+        for k in range(K):
+            out[k, i] = _node_score(pts, X[k, i, 0], X[k, i, 1], f, tp, tv, qp, qv)
+    return out
+
+
+@njit(**_OPTS)
+def area_range(pts, X, nodes, tp, tv, qp, qv):
+    K, n = X.shape[0], X.shape[1]
+    lo = np.empty((K, n))
+    hi = np.empty((K, n))
+    for i in prange(n):
+        f = nodes[i]
+        for k in range(K):
+            lo[k, i], hi[k, i] = _node_area_range(pts, X[k, i, 0], X[k, i, 1], f, tp, tv, qp, qv)
+    return lo, hi
+
+
+@njit(**_OPTS)
+def banded_score(pts, X, nodes, tp, tv, qp, qv, lo0, hi0):
+    """The score where the node's incident areas stay within [lo0, hi0], -inf elsewhere (``optimize``)."""
+    K, n = X.shape[0], X.shape[1]
+    out = np.empty((K, n))
+    for i in prange(n):
+        f = nodes[i]
+        for k in range(K):
+            px, py = X[k, i, 0], X[k, i, 1]
+            lo, hi = _node_area_range(pts, px, py, f, tp, tv, qp, qv)
+            if lo >= lo0[i] and hi <= hi0[i]:
+                out[k, i] = _node_score(pts, px, py, f, tp, tv, qp, qv)
+            else:
+                out[k, i] = -np.inf
+    return out
+
+
+@njit(**_OPTS)
+def angle_target(pts, nodes, free, sp, ring, sa, sb, frac):
+    """``angle_target`` / ``_angle_sums``: the mean of the rotated spoke positions."""
+    n = nodes.shape[0]
+    out = np.empty((n, 2))
+    for i in prange(n):
+        f = nodes[i]
+        cx, cy = pts[free[f], 0], pts[free[f], 1]
+        sx = 0.0
+        sy = 0.0
+        for s in range(sp[f], sp[f + 1]):
+            j, a, b = ring[s], sa[s], sb[s]
+            jx, jy = pts[j, 0], pts[j, 1]
+            ax, ay = pts[a, 0] - jx, pts[a, 1] - jy
+            bx, by = pts[b, 0] - jx, pts[b, 1] - jy
+            la = math.sqrt(ax * ax + ay * ay)
+            ax /= la
+            ay /= la
+            lb = math.sqrt(bx * bx + by * by)
+            bx /= lb
+            by /= lb
+            tx, ty = by - ay, ax - bx
+            if frac[s] != 0.5:
+                theta = math.atan2(ax * by - ay * bx, ax * bx + ay * by)
+                if theta <= 0:
+                    theta += _TWO_PI
+                phi = frac[s] * theta
+                cs, sn = math.cos(phi), math.sin(phi)
+                tx = cs * ax - sn * ay
+                ty = sn * ax + cs * ay
+            dx, dy = cx - jx, cy - jy
+            sc = math.sqrt(dx * dx + dy * dy)
+            sc /= math.sqrt(tx * tx + ty * ty)
+            tx *= sc
+            ty *= sc
+            if math.isfinite(tx) and math.isfinite(ty):
+                sx += tx + jx
+                sy += ty + jy
+            else:  # a degenerate spoke keeps the current position
+                sx += cx
+                sy += cy
+        c = float(sp[f + 1] - sp[f])
+        out[i, 0] = sx / c
+        out[i, 1] = sy / c
+    return out
+
+
+@njit(**_OPTS)
+def ring_mean(pts, nodes, free, rp, nbr, lengths):
+    """Mean of the edge neighbours (``laplacian_target``) or, with ``lengths``, of the edge lengths (``local_scale``)."""
+    n = nodes.shape[0]
+    out = np.empty((n, 2))
+    for i in prange(n):
+        f = nodes[i]
+        cx, cy = pts[free[f], 0], pts[free[f], 1]
+        sx = 0.0
+        sy = 0.0
+        for r in range(rp[f], rp[f + 1]):
+            j = nbr[r]
+            if lengths:
+                dx, dy = pts[j, 0] - cx, pts[j, 1] - cy
+                sx += math.sqrt(dx * dx + dy * dy)
+            else:
+                sx += pts[j, 0]
+                sy += pts[j, 1]
+        c = float(rp[f + 1] - rp[f])
+        out[i, 0] = sx / c
+        out[i, 1] = sy / c
+    return out

@@ -1,0 +1,140 @@
+"""The compiled (numba) kernels give the same numbers as the numpy ones.
+
+``ANGLESMOOTH_KERNEL=numba`` forces the compiled kernels on small meshes (the
+``auto`` default uses them only from ``AUTO_MIN_FREE`` free nodes on).  numba
+is in the test extra, so these tests always run.
+"""
+
+from __future__ import annotations
+
+import meshio
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from anglesmooth import generate as gen
+from anglesmooth.cli import cli
+from anglesmooth.errors import ConfigurationError
+from anglesmooth.mesh import Mesh2D
+from anglesmooth.smoothers import SMOOTHERS, _fast
+from anglesmooth.smoothers._local import BlockGeometry, angle_target, laplacian_target, local_scale
+from anglesmooth.topology import build_topology
+
+MESHES = {
+    "triangles": lambda: gen.paper_triangle_mesh(3, n_interior=150, per_side=10),
+    "quads": lambda: gen.paper_quad_mesh(3),
+    "mixed": lambda: gen.paper_mixed_mesh(3),
+    "graded": lambda: gen.graded_mesh(3, per_layer=30, per_side=6),
+    "distorted": gen.distorted_mesh,
+}
+
+
+def tangled(mesh: Mesh2D, seed: int = 0) -> Mesh2D:
+    """The mesh with its free nodes jittered by about one edge length: many inverted and non-convex cells."""
+    topo = build_topology(mesh)
+    rng = np.random.default_rng(seed)
+    p = mesh.points.copy()
+    h = np.median(np.linalg.norm(p[topo.edges[:, 0]] - p[topo.edges[:, 1]], axis=1))
+    p[topo.free_nodes] += rng.normal(scale=0.8 * h, size=(topo.n_free, 2))
+    return Mesh2D.from_arrays(p, triangles=mesh.triangles, quads=mesh.quads)
+
+
+def run(mesh: Mesh2D, method: str, guard: bool, mode: str, monkeypatch, order: str = "colour", passes: int = 3):
+    monkeypatch.setenv("ANGLESMOOTH_KERNEL", mode)
+    topo = build_topology(mesh)
+    assert _fast.active(topo) == (mode == "numba")
+    p = mesh.points
+    for _ in range(passes):
+        r = SMOOTHERS[method].step(p, topo, guard=guard, order=order)
+        p = r.points
+    return p, r.rejected
+
+
+@pytest.mark.parametrize("name", [*MESHES, "tangled"])
+@pytest.mark.parametrize("method", sorted(SMOOTHERS))
+@pytest.mark.parametrize("guard", [True, False])
+def test_every_method_same_result_with_either_kernel(name, method, guard, monkeypatch):
+    mesh = tangled(MESHES["mixed"]()) if name == "tangled" else MESHES[name]()
+    p_np, rej_np = run(mesh, method, guard, "numpy", monkeypatch)
+    p_nb, rej_nb = run(mesh, method, guard, "numba", monkeypatch)
+    assert rej_np == rej_nb
+    if method == "angle" and mesh.quads.shape[0] and mesh.triangles.shape[0]:
+        # the 3:2 split of quad:triangle spokes uses libm's atan2/cos/sin in the compiled kernel
+        np.testing.assert_allclose(p_nb, p_np, rtol=0, atol=1e-12 * np.ptp(mesh.points))
+    else:
+        np.testing.assert_array_equal(p_nb, p_np)
+
+
+@pytest.mark.parametrize("method", ["angle", "laplacian"])
+def test_jacobi_order_same_result_with_either_kernel(method, monkeypatch):
+    mesh = MESHES["triangles"]()
+    a, _ = run(mesh, method, True, "numpy", monkeypatch, order="jacobi")
+    b, _ = run(mesh, method, True, "numba", monkeypatch, order="jacobi")
+    np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("name", ["triangles", "quads", "mixed"])
+def test_kernels_agree_on_random_candidates_valid_invalid_and_degenerate(name, monkeypatch):
+    monkeypatch.setenv("ANGLESMOOTH_KERNEL", "numpy")
+    mesh = tangled(MESHES[name](), seed=1)
+    topo = build_topology(mesh)
+    rng = np.random.default_rng(2)
+    pts = mesh.points
+    checked_invalid = checked_degenerate = 0
+    for blk in topo.blocks():
+        cur = pts[topo.free_nodes[blk.nodes]]
+        X = cur[None] + rng.normal(scale=0.05 * np.ptp(pts), size=(6, blk.size, 2))
+        # a candidate exactly on a neighbour: zero-length edges (NaN cosines) must be invalid in both
+        nbr = topo.ring_nbr[blk.ring][np.searchsorted(topo.ring_loc[blk.ring], np.arange(blk.nodes.start, blk.nodes.stop))]
+        X = np.concatenate([X, cur[None], pts[nbr][None]])
+        ref = BlockGeometry(pts, topo, blk)
+        fast = _fast.FastGeometry(pts, topo, blk)
+        s_ref, s_fast = ref.score(X), fast.score(X)
+        np.testing.assert_array_equal(s_fast, s_ref)
+        checked_invalid += int((s_ref < -2.5).sum())
+        checked_degenerate += int((s_ref[-1] < -2.5).sum())
+        for a, b in zip(fast.area_range(X), ref.area_range(X)):
+            np.testing.assert_array_equal(a, b)
+        lo, hi = ref.area_range(cur)
+        np.testing.assert_array_equal(fast.banded_score(X, 0.8 * lo, hi / 0.8), ref.banded_score(X, 0.8 * lo, hi / 0.8))
+        sub = np.arange(0, blk.size, 2)
+        np.testing.assert_array_equal(fast.restrict(sub).score(X[:, sub]), ref.restrict(sub).score(X[:, sub]))
+        np.testing.assert_array_equal(_fast.laplacian_target(pts, topo, blk), laplacian_target(pts, topo, blk))
+        np.testing.assert_array_equal(_fast.local_scale(pts, topo, blk, sub), local_scale(pts, topo, blk, sub))
+        np.testing.assert_allclose(_fast.angle_target(pts, topo, blk), angle_target(pts, topo, blk), rtol=0, atol=1e-12)
+    assert checked_invalid > 0 and checked_degenerate > 0  # the invalid branches were exercised
+
+
+def test_auto_uses_compiled_kernels_only_on_large_meshes(monkeypatch):
+    monkeypatch.delenv("ANGLESMOOTH_KERNEL", raising=False)
+    mesh = MESHES["triangles"]()
+    assert not _fast.active(build_topology(mesh))
+    monkeypatch.setattr(_fast, "AUTO_MIN_FREE", 10)
+    assert _fast.active(build_topology(mesh))
+    monkeypatch.setattr(_fast, "_numba_available", lambda: False)
+    assert not _fast.active(build_topology(mesh))  # without numba, auto falls back to numpy
+
+
+def test_bad_kernel_setting_is_a_usage_error(monkeypatch, tmp_path):
+    monkeypatch.setenv("ANGLESMOOTH_KERNEL", "cuda")
+    with pytest.raises(ConfigurationError, match="ANGLESMOOTH_KERNEL"):
+        _fast.kernel_mode()
+    monkeypatch.setenv("ANGLESMOOTH_KERNEL", "numba")
+    monkeypatch.setattr(_fast, "_numba_available", lambda: False)
+    with pytest.raises(ConfigurationError, match="not installed"):
+        _fast.kernel_mode()
+    monkeypatch.setenv("ANGLESMOOTH_KERNEL", "cuda")
+    src = tmp_path / "in.vtu"
+    m = gen.structured_triangles(4, 4)
+    meshio.write(src, meshio.Mesh(np.c_[m.points, np.zeros(len(m.points))], [("triangle", m.triangles)]))
+    out = tmp_path / "out.vtu"
+    for args in ([str(src), str(out)], ["compare", str(src)]):
+        try:  # click < 8.2 mixes stderr into stdout unless told not to
+            runner = CliRunner(mix_stderr=False)
+        except TypeError:
+            runner = CliRunner()
+        res = runner.invoke(cli, args)
+        assert res.exit_code == 2, res.output
+        lines = res.stderr.strip().splitlines()
+        assert len(lines) == 1 and "ANGLESMOOTH_KERNEL='cuda'" in lines[0], res.stderr
+        assert not out.exists()
