@@ -11,13 +11,19 @@ every case in its own subprocess so that the peak RSS of each case is its own:
   same mesh and run;
 * a single ``np.bincount``-based Laplacian pass (the floor ``laplacian`` is
   compared with);
+* with ``--kernels numpy,numba`` every method case runs with each kernel
+  (``ANGLESMOOTH_KERNEL``); the default ``auto`` is what users get (numba from
+  100k free nodes on, when installed).  ``jit s`` is the time to load (or, on
+  the very first run, compile) the compiled kernels, paid once per process;
 * the whole CLI (``anglesmooth in.msh out.vtu --passes 10``) beside meshio alone
-  reading the same ``.msh`` and writing a zlib-compressed ``.vtu``.
+  reading the same ``.msh`` and writing a zlib-compressed ``.vtu``, for a
+  binary and an ASCII ``.msh`` (gmsh writes ASCII unless told otherwise).
 
 Usage::
 
     PYTHONPATH=src python benchmarks/bench_speed.py                 # everything
     PYTHONPATH=src python benchmarks/bench_speed.py --sizes 100k,1M --repeat 5 --json out.json
+    PYTHONPATH=src python benchmarks/bench_speed.py --kernels numpy,numba   # both kernels, every size
     PYTHONPATH=src python benchmarks/bench_speed.py --tiny          # seconds; what the test runs
 
 No number here is asserted anywhere: the benchmark prints, it does not judge.
@@ -86,21 +92,22 @@ def write_inputs(name: str, kind: str, n_cells: int, tmp: Path) -> dict:
     mesh = make_mesh(kind, n_cells)
     npz = tmp / f"{name}.npz"
     np.savez(npz, points=mesh.points, triangles=mesh.triangles, quads=mesh.quads)
-    msh = tmp / f"{name}.msh"
+    msh = {"binary": tmp / f"{name}.msh", "ascii": tmp / f"{name}_ascii.msh"}
     try:
         import meshio
 
         cells = [(k, c) for k, c in (("triangle", mesh.triangles), ("quad", mesh.quads)) if c.shape[0]]
         pts3 = np.c_[mesh.points, np.zeros(mesh.n_points)]
-        meshio.write(msh, meshio.Mesh(pts3, cells), file_format="gmsh", binary=True)
+        for enc, path in msh.items():
+            meshio.write(path, meshio.Mesh(pts3, cells), file_format="gmsh", binary=enc == "binary")
     except Exception as exc:  # noqa: BLE001 - the CLI columns are optional
         print(f"(no .msh for {name}: {exc})", file=sys.stderr)
-        msh = None
+        msh = {}
     return {
         "name": name,
         "kind": kind,
         "npz": str(npz),
-        "msh": str(msh) if msh else None,
+        "msh": {enc: str(path) for enc, path in msh.items()},
         "n_points": mesh.n_points,
         "n_cells": mesh.n_cells,
     }
@@ -116,7 +123,7 @@ def _peak_rss_mb() -> float:
 
 def worker_method(npz: str, method: str, guard: bool, repeat: int) -> dict:
     from anglesmooth.mesh import Mesh2D
-    from anglesmooth.smoothers import SMOOTHERS
+    from anglesmooth.smoothers import SMOOTHERS, _fast
     from anglesmooth.topology import build_topology
 
     d = np.load(npz)
@@ -125,6 +132,11 @@ def worker_method(npz: str, method: str, guard: bool, repeat: int) -> dict:
     topo = build_topology(mesh)
     topo.blocks()  # the per-colour slices, built once and cached
     setup = time.perf_counter() - t0
+    kernel, jit = "numpy", None
+    if _fast.active(topo):
+        t0 = time.perf_counter()
+        _fast.warm_up()  # load (or compile) the kernels: paid once per process, not per pass
+        kernel, jit = "numba", time.perf_counter() - t0
     step = SMOOTHERS[method].step
     pts = np.array(mesh.points)
     times = []
@@ -132,7 +144,8 @@ def worker_method(npz: str, method: str, guard: bool, repeat: int) -> dict:
         t0 = time.perf_counter()
         pts = step(pts, topo, guard=guard).points
         times.append(time.perf_counter() - t0)
-    out = {"setup_s": setup, "pass_s": statistics.median(times), "passes_s": times, "peak_rss_mb": _peak_rss_mb()}
+    out = {"setup_s": setup, "pass_s": statistics.median(times), "passes_s": times, "peak_rss_mb": _peak_rss_mb(),
+           "kernel": kernel, "jit_s": jit}
     if method == "laplacian" and guard is False:
         out["bincount_pass_s"] = _bincount_pass(mesh.points, topo, repeat)
     return out
@@ -166,9 +179,11 @@ def worker_meshio(msh: str, out: str) -> dict:
     return {"read_s": t1 - t0, "write_s": t2 - t1, "total_s": t2 - t0, "peak_rss_mb": _peak_rss_mb()}
 
 
-def _run_worker(args: list[str]) -> dict:
+def _run_worker(args: list[str], kernel: str | None = None) -> dict:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(SRC), env.get("PYTHONPATH", "")])
+    if kernel is not None:
+        env["ANGLESMOOTH_KERNEL"] = kernel
     res = subprocess.run([sys.executable, __file__, "--worker", *args], capture_output=True, text=True, env=env)
     if res.returncode != 0:
         return {"error": (res.stderr.strip().splitlines() or ["failed"])[-1]}
@@ -203,38 +218,42 @@ def cases() -> list[tuple[str, bool]]:
     return [(m, True) for m in SMOOTHERS] + [("angle", False), ("laplacian", False)]
 
 
-def run(sizes: dict, repeat: int, cli: bool, tmp: Path, slow_repeat: int | None = None) -> list[dict]:
+def run(sizes: dict, repeat: int, cli: bool, tmp: Path, slow_repeat: int | None = None,
+        kernels: tuple[str, ...] = ("auto",)) -> list[dict]:
     rows = []
     for name, (kind, n_cells) in sizes.items():
         info = write_inputs(name, kind, n_cells, tmp)
         print(f"# {name}: {info['n_cells']} cells, {info['n_points']} nodes", file=sys.stderr, flush=True)
-        results = {}
-        for method, guard in cases():
-            rep = repeat
-            if method == "optimization" and slow_repeat is not None:
-                rep = slow_repeat
-            r = _run_worker(["method", info["npz"], method, str(int(guard)), str(rep)])
-            results[(method, guard)] = r
-            print(f"#   {method:16s} guard={guard!s:5s} {r.get('pass_s', float('nan')):8.3f} s/pass", file=sys.stderr, flush=True)
-        lap = results[("laplacian", True)].get("pass_s")
-        floor = results[("laplacian", False)].get("bincount_pass_s")
-        for (method, guard), r in results.items():
-            row = {"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"], "method": method, "guard": guard}
-            row.update({k: v for k, v in r.items() if k != "passes_s"})
-            if lap and "pass_s" in r:
-                row["ratio_to_laplacian"] = r["pass_s"] / lap
-            if floor and "pass_s" in r:
-                row["ratio_to_bincount"] = r["pass_s"] / floor
-            rows.append(row)
-        if cli and info["msh"]:
-            m = _run_worker(["meshio", info["msh"], str(tmp / f"{name}_meshio.vtu")])
-            c = run_cli(info["msh"], str(tmp / f"{name}_cli.vtu"))
-            rows.append({"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"], "method": "meshio read+write",
-                         "guard": None, "e2e_s": m.get("total_s"), "read_s": m.get("read_s"),
-                         "write_s": m.get("write_s"), "peak_rss_mb": m.get("peak_rss_mb")})
+        for kernel in kernels:
+            results = {}
+            for method, guard in cases():
+                rep = repeat
+                if method == "optimization" and slow_repeat is not None:
+                    rep = slow_repeat
+                r = _run_worker(["method", info["npz"], method, str(int(guard)), str(rep)], kernel)
+                results[(method, guard)] = r
+                print(f"#   {kernel:5s} {method:16s} guard={guard!s:5s} {r.get('pass_s', float('nan')):8.3f} s/pass",
+                      file=sys.stderr, flush=True)
+            lap = results[("laplacian", True)].get("pass_s")
+            floor = results[("laplacian", False)].get("bincount_pass_s")
+            for (method, guard), r in results.items():
+                row = {"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"], "method": method,
+                       "guard": guard}
+                row.update({k: v for k, v in r.items() if k != "passes_s"})
+                if lap and "pass_s" in r:
+                    row["ratio_to_laplacian"] = r["pass_s"] / lap
+                if floor and "pass_s" in r:
+                    row["ratio_to_bincount"] = r["pass_s"] / floor
+                rows.append(row)
+        for enc, msh in info["msh"].items() if cli else ():
+            m = _run_worker(["meshio", msh, str(tmp / f"{name}_meshio.vtu")])
+            c = run_cli(msh, str(tmp / f"{name}_cli.vtu"))
+            common = {"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"], "msh": enc}
+            rows.append({**common, "method": f"meshio ({enc} msh)", "guard": None, "e2e_s": m.get("total_s"),
+                         "read_s": m.get("read_s"), "write_s": m.get("write_s"), "peak_rss_mb": m.get("peak_rss_mb")})
             ratio = c["total_s"] / m["total_s"] if m.get("total_s") else None
-            rows.append({"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"], "method": "CLI --passes 10",
-                         "guard": True, "e2e_s": c["total_s"], "ratio_to_meshio": ratio, "returncode": c["returncode"]})
+            rows.append({**common, "method": f"CLI ({enc} msh)", "guard": True, "e2e_s": c["total_s"],
+                         "ratio_to_meshio": ratio, "returncode": c["returncode"]})
         for p in tmp.glob(f"{name}*"):
             p.unlink()
     return rows
@@ -247,20 +266,30 @@ def _fmt(v, spec):
 
 
 def table(rows: list[dict]) -> str:
-    head = f"{'mesh':>9} {'cells':>9} {'method':<18} {'guard':<5} {'setup s':>8} {'s/pass':>8} {'x lap':>6} {'x bincnt':>8} {'e2e s':>7} {'x meshio':>8} {'RSS MB':>7}"
+    head = (f"{'mesh':>9} {'cells':>9} {'method':<18} {'guard':<5} {'kernel':<6} {'setup s':>8} {'jit s':>6} "
+            f"{'s/pass':>8} {'x lap':>6} {'x bincnt':>8} {'e2e s':>7} {'x meshio':>8} {'RSS MB':>7}")
     lines = [head, "-" * len(head)]
     for r in rows:
         guard = "" if r.get("guard") is None else ("on" if r["guard"] else "off")
+        kernel = r.get("kernel", "")
         if "error" in r:
-            lines.append(f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<18} {guard:<5} error: {r['error']}")
+            lines.append(f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<18} {guard:<5} {kernel:<6} error: {r['error']}")
             continue
         lines.append(
-            f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<18} {guard:<5} {_fmt(r.get('setup_s'), '8.2f')} "
-            f"{_fmt(r.get('pass_s'), '8.3f')} {_fmt(r.get('ratio_to_laplacian'), '6.2f')} "
+            f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<18} {guard:<5} {kernel:<6} {_fmt(r.get('setup_s'), '8.2f')} "
+            f"{_fmt(r.get('jit_s'), '6.2f')} {_fmt(r.get('pass_s'), '8.3f')} {_fmt(r.get('ratio_to_laplacian'), '6.2f')} "
             f"{_fmt(r.get('ratio_to_bincount'), '8.1f')} {_fmt(r.get('e2e_s'), '7.2f')} "
             f"{_fmt(r.get('ratio_to_meshio'), '8.2f')} {_fmt(r.get('peak_rss_mb'), '7.0f')}"
         )
     return "\n".join(lines)
+
+
+def _numba_version() -> str | None:
+    try:
+        import numba
+    except ImportError:
+        return None
+    return numba.__version__
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -280,6 +309,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--slow-repeat", type=int, default=None, help="passes for 'optimization' (default: --repeat)")
     ap.add_argument("--no-cli", action="store_true", help="skip the end-to-end CLI and meshio columns")
     ap.add_argument("--tiny", action="store_true", help="tiny meshes, 2 passes (for the test suite)")
+    ap.add_argument("--kernels", default="auto",
+                    help="comma-separated ANGLESMOOTH_KERNEL values to run every method with (auto, numpy, numba)")
     ap.add_argument("--json", metavar="PATH", help="also write the rows as JSON")
     args = ap.parse_args(argv)
     if args.tiny:
@@ -292,11 +323,12 @@ def main(argv: list[str] | None = None) -> int:
     cli = not args.no_cli and _cli_available()
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="anglesmooth-bench-") as tmp:
-        rows = run(sizes, repeat, cli, Path(tmp), args.slow_repeat)
+        rows = run(sizes, repeat, cli, Path(tmp), args.slow_repeat, tuple(args.kernels.split(",")))
     print(table(rows))
     meta = {
         "python": sys.version.split()[0],
         "numpy": np.__version__,
+        "numba": _numba_version(),
         "cpus": os.cpu_count(),
         "repeat": repeat,
         "wall_s": time.perf_counter() - t0,

@@ -19,7 +19,7 @@ def test_bench_speed_tiny(tmp_path):
     out = tmp_path / "bench.json"
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
     res = subprocess.run(
-        [sys.executable, str(SCRIPT), "--tiny", "--no-cli", "--json", str(out)],
+        [sys.executable, str(SCRIPT), "--tiny", "--kernels", "numpy,numba", "--json", str(out)],
         capture_output=True, text=True, env=env, cwd=tmp_path, timeout=600,
     )
     assert res.returncode == 0, res.stderr
@@ -30,12 +30,22 @@ def test_bench_speed_tiny(tmp_path):
 
     data = json.loads(out.read_text())
     rows = data["rows"]
-    methods = {(r["mesh"], r["method"], r["guard"]) for r in rows}
+    methods = {(r["mesh"], r["method"], r["guard"], r.get("kernel")) for r in rows}
     for name in SMOOTHERS:
-        assert ("tiny", name, True) in methods and ("tinyquad", name, True) in methods
-    assert ("tiny", "angle", False) in methods
-    for r in rows:
+        for kernel in ("numpy", "numba"):  # every method ran with both kernels
+            assert ("tiny", name, True, kernel) in methods and ("tinyquad", name, True, kernel) in methods
+    assert ("tiny", "angle", False, "numba") in methods
+    timed = [r for r in rows if "kernel" in r]
+    for r in timed:
         assert "error" not in r, r
         assert r["pass_s"] >= 0 and r["setup_s"] >= 0 and r["peak_rss_mb"] > 0
+        assert (r["jit_s"] is None) == (r["kernel"] == "numpy")
     assert any("ratio_to_laplacian" in r for r in rows)
+    # the end-to-end rows: the CLI beside meshio alone, for a binary and an ASCII .msh
+    e2e = {(r["mesh"], r["method"]): r for r in rows if "kernel" not in r}
+    for mesh in ("tiny", "tinyquad"):
+        for enc in ("binary", "ascii"):
+            assert e2e[(mesh, f"CLI ({enc} msh)")]["returncode"] == 0
+            assert e2e[(mesh, f"CLI ({enc} msh)")]["ratio_to_meshio"] > 0
+            assert e2e[(mesh, f"meshio ({enc} msh)")]["e2e_s"] > 0
     assert list(tmp_path.iterdir()) == [out]  # meshes went to a temporary directory
