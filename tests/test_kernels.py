@@ -7,6 +7,11 @@ is in the test extra, so these tests always run.
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import meshio
 import numpy as np
 import pytest
@@ -138,3 +143,33 @@ def test_bad_kernel_setting_is_a_usage_error(monkeypatch, tmp_path):
         lines = res.stderr.strip().splitlines()
         assert len(lines) == 1 and "ANGLESMOOTH_KERNEL='cuda'" in lines[0], res.stderr
         assert not out.exists()
+
+
+def test_compiled_kernels_are_safe_from_several_threads(tmp_path):
+    """numba's "workqueue" threading layer aborts the process on concurrent parallel launches
+    (measured: without the lock this script dies); the kernel calls are serialized."""
+    script = tmp_path / "threads.py"
+    script.write_text(
+        "import numpy as np\n"
+        "from concurrent.futures import ThreadPoolExecutor\n"
+        "from anglesmooth import generate as gen\n"
+        "from anglesmooth.smoothers import SMOOTHERS\n"
+        "from anglesmooth.topology import build_topology\n"
+        "def smooth(m):\n"
+        "    topo, p = build_topology(m), m.points\n"
+        "    for _ in range(5):\n"
+        "        p = SMOOTHERS['angle'].step(p, topo).points\n"
+        "    return p\n"
+        "meshes = [gen.paper_triangle_mesh(s, n_interior=200, per_side=10) for s in range(8)]\n"
+        "serial = [smooth(m) for m in meshes]\n"
+        "with ThreadPoolExecutor(4) as pool:\n"
+        "    threaded = list(pool.map(smooth, meshes))\n"
+        "assert all(np.array_equal(a, b) for a, b in zip(serial, threaded))\n"
+        "import numba\n"
+        "print(numba.threading_layer())\n"
+    )
+    env = dict(os.environ, ANGLESMOOTH_KERNEL="numba", NUMBA_THREADING_LAYER="workqueue",
+               PYTHONPATH=os.pathsep.join([str(Path(__file__).resolve().parents[1] / "src"), os.environ.get("PYTHONPATH", "")]))
+    res = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env, timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.split() == ["workqueue"]

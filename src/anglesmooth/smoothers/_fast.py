@@ -33,6 +33,7 @@ When
 from __future__ import annotations
 
 import os
+import threading
 
 import numpy as np
 
@@ -45,6 +46,9 @@ AUTO_MIN_FREE = 100_000
 
 _ENV = "ANGLESMOOTH_KERNEL"
 _kernels = None  # the compiled module, imported on first use
+# numba's default ("workqueue") threading layer aborts the process when two threads launch
+# parallel kernels at once; library callers may smooth several meshes from a thread pool
+_LOCK = threading.Lock()
 
 
 def _numba_available() -> bool:
@@ -88,6 +92,12 @@ def _k():
     return _kernels
 
 
+def _run(fn, *args):
+    """Call a compiled kernel, one at a time across threads (see ``_LOCK``)."""
+    with _LOCK:
+        return fn(*args)
+
+
 def _csr(topo):
     """Row pointers of the per-node tables (ring, spokes, triangles, quads) over all free nodes, cached."""
     hit = topo._cache.get(("csr",))
@@ -106,15 +116,16 @@ def _nodes(blk) -> np.ndarray:
 def angle_target(points: np.ndarray, topo, blk) -> np.ndarray:
     """Compiled :func:`._local.angle_target`."""
     _, sp, _, _ = _csr(topo)
-    return _k().angle_target(
-        points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac
+    return _run(
+        _k().angle_target,
+        points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,
     )
 
 
 def laplacian_target(points: np.ndarray, topo, blk) -> np.ndarray:
     """Compiled :func:`._local.laplacian_target`."""
     rp, _, _, _ = _csr(topo)
-    return _k().ring_mean(points, _nodes(blk), topo.free_nodes, rp, topo.ring_nbr, False)
+    return _run(_k().ring_mean, points, _nodes(blk), topo.free_nodes, rp, topo.ring_nbr, False)
 
 
 def local_scale(points: np.ndarray, topo, blk, subset: np.ndarray | None = None) -> np.ndarray:
@@ -123,7 +134,7 @@ def local_scale(points: np.ndarray, topo, blk, subset: np.ndarray | None = None)
     nodes = _nodes(blk)
     if subset is not None:
         nodes = nodes[subset]
-    return _k().ring_mean(points, nodes, topo.free_nodes, rp, topo.ring_nbr, True)[:, 0]
+    return _run(_k().ring_mean, points, nodes, topo.free_nodes, rp, topo.ring_nbr, True)[:, 0]
 
 
 class FastGeometry:
@@ -152,7 +163,7 @@ class FastGeometry:
         X = np.asarray(X, dtype=np.float64)
         lead = X.shape[:-2]
         Xf = np.ascontiguousarray(X.reshape((-1, self.n, 2)))
-        out = fn(self._pts, Xf, self._nodes, tp, t.tri_verts, qp, t.quad_verts, *extra)
+        out = _run(fn, self._pts, Xf, self._nodes, tp, t.tri_verts, qp, t.quad_verts, *extra)
         return lead, out
 
     def score(self, X: np.ndarray) -> np.ndarray:
