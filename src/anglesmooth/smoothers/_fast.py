@@ -39,7 +39,17 @@ import numpy as np
 
 from ..errors import ConfigurationError
 
-__all__ = ["AUTO_MIN_FREE", "FastGeometry", "active", "angle_target", "laplacian_target", "local_scale"]
+__all__ = [
+    "AUTO_MIN_FREE",
+    "FastGeometry",
+    "active",
+    "angle_choose",
+    "angle_target",
+    "kernel_mode",
+    "laplacian_target",
+    "local_scale",
+    "warm_up",
+]
 
 #: Smallest number of free nodes for which ``auto`` uses the compiled kernels.
 AUTO_MIN_FREE = 100_000
@@ -137,6 +147,16 @@ def local_scale(points: np.ndarray, topo, blk, subset: np.ndarray | None = None)
     return _run(_k().ring_mean, points, nodes, topo.free_nodes, rp, topo.ring_nbr, True)[:, 0]
 
 
+def angle_choose(points: np.ndarray, topo, blk, good: float):
+    """Stages 1 and 2 of the robust ``angle`` update, fused per node (see :func:`.angle.step`)."""
+    rp, sp, tp, qp = _csr(topo)
+    return _run(
+        _k().angle_choose,
+        points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,
+        rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, float(good),
+    )
+
+
 class FastGeometry:
     """Compiled twin of :class:`._local.BlockGeometry`: the same methods, no gathered copies.
 
@@ -196,4 +216,5 @@ def warm_up() -> None:
         x = m.points[topo.free_nodes[blk.nodes]]
         g.score(x), g.area_range(x), g.banded_score(x, *g.area_range(x))
         angle_target(m.points, topo, blk), laplacian_target(m.points, topo, blk), local_scale(m.points, topo, blk)
+        angle_choose(m.points, topo, blk, 0.5)
 

@@ -139,72 +139,117 @@ def banded_score(pts, X, nodes, tp, tv, qp, qv, lo0, hi0):
     return out
 
 
+@njit(inline="always")
+def _node_angle(pts, f, free, sp, ring, sa, sb, frac):
+    """``angle_target`` / ``_angle_sums`` for one node: the mean of its rotated spoke positions."""
+    cx, cy = pts[free[f], 0], pts[free[f], 1]
+    sx = 0.0
+    sy = 0.0
+    for s in range(sp[f], sp[f + 1]):
+        j, a, b = ring[s], sa[s], sb[s]
+        jx, jy = pts[j, 0], pts[j, 1]
+        ax, ay = pts[a, 0] - jx, pts[a, 1] - jy
+        bx, by = pts[b, 0] - jx, pts[b, 1] - jy
+        la = math.sqrt(ax * ax + ay * ay)
+        ax /= la
+        ay /= la
+        lb = math.sqrt(bx * bx + by * by)
+        bx /= lb
+        by /= lb
+        tx, ty = by - ay, ax - bx
+        if frac[s] != 0.5:
+            theta = math.atan2(ax * by - ay * bx, ax * bx + ay * by)
+            if theta <= 0:
+                theta += _TWO_PI
+            phi = frac[s] * theta
+            cs, sn = math.cos(phi), math.sin(phi)
+            tx = cs * ax - sn * ay
+            ty = sn * ax + cs * ay
+        dx, dy = cx - jx, cy - jy
+        sc = math.sqrt(dx * dx + dy * dy)
+        sc /= math.sqrt(tx * tx + ty * ty)
+        tx *= sc
+        ty *= sc
+        if math.isfinite(tx) and math.isfinite(ty):
+            sx += tx + jx
+            sy += ty + jy
+        else:  # a degenerate spoke keeps the current position
+            sx += cx
+            sy += cy
+    c = float(sp[f + 1] - sp[f])
+    return sx / c, sy / c
+
+
+@njit(inline="always")
+def _node_ring_mean(pts, f, free, rp, nbr, lengths):
+    """``laplacian_target`` (the neighbours' centroid) or, with ``lengths``, ``local_scale`` for one node."""
+    cx, cy = pts[free[f], 0], pts[free[f], 1]
+    sx = 0.0
+    sy = 0.0
+    for r in range(rp[f], rp[f + 1]):
+        j = nbr[r]
+        if lengths:
+            dx, dy = pts[j, 0] - cx, pts[j, 1] - cy
+            sx += math.sqrt(dx * dx + dy * dy)
+        else:
+            sx += pts[j, 0]
+            sy += pts[j, 1]
+    c = float(rp[f + 1] - rp[f])
+    return sx / c, sy / c
+
+
 @njit(**_OPTS)
 def angle_target(pts, nodes, free, sp, ring, sa, sb, frac):
-    """``angle_target`` / ``_angle_sums``: the mean of the rotated spoke positions."""
     n = nodes.shape[0]
     out = np.empty((n, 2))
     for i in prange(n):
-        f = nodes[i]
-        cx, cy = pts[free[f], 0], pts[free[f], 1]
-        sx = 0.0
-        sy = 0.0
-        for s in range(sp[f], sp[f + 1]):
-            j, a, b = ring[s], sa[s], sb[s]
-            jx, jy = pts[j, 0], pts[j, 1]
-            ax, ay = pts[a, 0] - jx, pts[a, 1] - jy
-            bx, by = pts[b, 0] - jx, pts[b, 1] - jy
-            la = math.sqrt(ax * ax + ay * ay)
-            ax /= la
-            ay /= la
-            lb = math.sqrt(bx * bx + by * by)
-            bx /= lb
-            by /= lb
-            tx, ty = by - ay, ax - bx
-            if frac[s] != 0.5:
-                theta = math.atan2(ax * by - ay * bx, ax * bx + ay * by)
-                if theta <= 0:
-                    theta += _TWO_PI
-                phi = frac[s] * theta
-                cs, sn = math.cos(phi), math.sin(phi)
-                tx = cs * ax - sn * ay
-                ty = sn * ax + cs * ay
-            dx, dy = cx - jx, cy - jy
-            sc = math.sqrt(dx * dx + dy * dy)
-            sc /= math.sqrt(tx * tx + ty * ty)
-            tx *= sc
-            ty *= sc
-            if math.isfinite(tx) and math.isfinite(ty):
-                sx += tx + jx
-                sy += ty + jy
-            else:  # a degenerate spoke keeps the current position
-                sx += cx
-                sy += cy
-        c = float(sp[f + 1] - sp[f])
-        out[i, 0] = sx / c
-        out[i, 1] = sy / c
+        out[i, 0], out[i, 1] = _node_angle(pts, nodes[i], free, sp, ring, sa, sb, frac)
     return out
 
 
 @njit(**_OPTS)
 def ring_mean(pts, nodes, free, rp, nbr, lengths):
-    """Mean of the edge neighbours (``laplacian_target``) or, with ``lengths``, of the edge lengths (``local_scale``)."""
     n = nodes.shape[0]
     out = np.empty((n, 2))
     for i in prange(n):
+        out[i, 0], out[i, 1] = _node_ring_mean(pts, nodes[i], free, rp, nbr, lengths)
+    return out
+
+
+@njit(**_OPTS)
+def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good):
+    """Stages 1 and 2 of the robust ``angle`` update (``angle.step``), fused per node.
+
+    Returns the chosen positions, their scores and whether the angle position was invalid.
+    """
+    n = nodes.shape[0]
+    new = np.empty((n, 2))
+    best = np.empty(n)
+    refused = np.zeros(n, np.bool_)
+    for i in prange(n):
         f = nodes[i]
         cx, cy = pts[free[f], 0], pts[free[f], 1]
-        sx = 0.0
-        sy = 0.0
-        for r in range(rp[f], rp[f + 1]):
-            j = nbr[r]
-            if lengths:
-                dx, dy = pts[j, 0] - cx, pts[j, 1] - cy
-                sx += math.sqrt(dx * dx + dy * dy)
+        ax, ay = _node_angle(pts, f, free, sp, ring, sa, sb, frac)
+        s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv)
+        s_c = _node_score(pts, cx, cy, f, tp, tv, qp, qv)
+        refused[i] = s_a <= INVALID + 0.5
+        if s_a >= s_c and s_a >= good:
+            new[i, 0], new[i, 1], best[i] = ax, ay, s_a
+            continue
+        # candidates in the numpy order: A, L, (A + L) / 2, (A + C) / 2, C; the first best wins
+        lx, ly = _node_ring_mean(pts, f, free, rp, nbr, False)
+        bx, by, bs = ax, ay, s_a
+        for k in range(3):
+            if k == 0:
+                px, py = lx, ly
+            elif k == 1:
+                px, py = 0.5 * (ax + lx), 0.5 * (ay + ly)
             else:
-                sx += pts[j, 0]
-                sy += pts[j, 1]
-        c = float(rp[f + 1] - rp[f])
-        out[i, 0] = sx / c
-        out[i, 1] = sy / c
-    return out
+                px, py = 0.5 * (ax + cx), 0.5 * (ay + cy)
+            sk = _node_score(pts, px, py, f, tp, tv, qp, qv)
+            if sk > bs:
+                bx, by, bs = px, py, sk
+        if s_c > bs:
+            bx, by, bs = cx, cy, s_c
+        new[i, 0], new[i, 1], best[i] = bx, by, bs
+    return new, best, refused

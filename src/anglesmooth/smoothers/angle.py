@@ -70,6 +70,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..topology import Topology
+from . import _fast
 from ._blocks import StepResult, run_blocks
 from ._local import INVALID, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
 
@@ -117,15 +118,15 @@ def step(
         (see :func:`._local.optimize`); None lets the angle alone decide.
     """
 
-    def update(pts, blk, cur):
+    good_score = -np.cos(np.radians(accept_above))
+    fast = guard and hybrid and _fast.active(topo)
+
+    def choose(pts, blk, cur, geom):
+        """Stages 1 and 2: (positions, their local scores, number of invalid angle positions)."""
+        if fast:  # the same choice, fused per node in a compiled loop
+            new, best, refused = _fast.angle_choose(pts, topo, blk, good_score)
+            return new, best, int(refused.sum())
         target = angle_target(pts, topo, blk)
-        if not guard:
-            return target, 0
-        geom = geometry(pts, topo, blk)
-        if not hybrid:
-            new, refused = first_valid(geom, cur, target)
-            return new, refused.sum()
-        good_score = -np.cos(np.radians(accept_above))
         s_ac = geom.score(np.stack([target, cur]))
         refused = int((s_ac[0] <= INVALID + 0.5).sum())
         # stage 1: where the angle position is no worse than staying and already good, take it
@@ -134,7 +135,7 @@ def step(
         best = np.where(take, s_ac[0], s_ac[1])
         rest = np.flatnonzero(~take)
         if rest.size:
-            # stage 2: the others choose among all five candidates
+            # stage 2: the others choose among all five candidates (the first best wins)
             lap = laplacian_target(pts, topo, blk)[rest]
             t, c = target[rest], cur[rest]
             sub = geom if rest.size == blk.size else geom.restrict(rest)
@@ -144,6 +145,16 @@ def step(
             k = np.argmax(s, axis=0)
             idx = np.arange(rest.size)
             new[rest], best[rest] = cands[k, idx], s[k, idx]
+        return new, best, refused
+
+    def update(pts, blk, cur):
+        if not guard:
+            return angle_target(pts, topo, blk), 0
+        geom = geometry(pts, topo, blk)
+        if not hybrid:
+            new, refused = first_valid(geom, cur, angle_target(pts, topo, blk))
+            return new, refused.sum()
+        new, best, refused = choose(pts, blk, cur, geom)
         idx = np.arange(blk.size)
         n_opt = int(np.ceil(opt_fraction * blk.size)) if opt_iterations > 0 else 0
         if n_opt:
