@@ -198,6 +198,17 @@ class FastGeometry:
         lead, s = self._call(_k().banded_score, X, lo0, hi0)
         return s.reshape(lead + (self.n,))
 
+    def compass(self, x, scale, iterations: int, radius: float, area_band: float | None, directions: np.ndarray):
+        """The whole compass search of :func:`._local.optimize` in one compiled loop."""
+        t = self._topo
+        _, _, tp, qp = _csr(t)
+        band = -1.0 if area_band is None else float(area_band)
+        return _run(
+            _k().compass, self._pts, np.ascontiguousarray(x, dtype=np.float64), self._nodes, tp, t.tri_verts, qp,
+            t.quad_verts, np.ascontiguousarray(scale, dtype=np.float64), int(iterations), float(radius), band,
+            directions,
+        )
+
 
 def warm_up() -> None:
     """Compile (or load from numba's cache) every kernel on a tiny mesh."""
@@ -215,6 +226,7 @@ def warm_up() -> None:
         g = FastGeometry(m.points, topo, blk)
         x = m.points[topo.free_nodes[blk.nodes]]
         g.score(x), g.area_range(x), g.banded_score(x, *g.area_range(x))
+        g.compass(x, np.ones(g.n), 1, 0.25, 0.8, np.eye(2)), g.compass(x, np.ones(g.n), 1, 0.25, None, np.eye(2))
         angle_target(m.points, topo, blk), laplacian_target(m.points, topo, blk), local_scale(m.points, topo, blk)
         angle_choose(m.points, topo, blk, 0.5)
 

@@ -253,3 +253,38 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
             bx, by, bs = cx, cy, s_c
         new[i, 0], new[i, 1], best[i] = bx, by, bs
     return new, best, refused
+
+
+@njit(**_OPTS)
+def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, directions):
+    """``optimize``: compass search per node, optionally within an area band (``band`` < 0: none)."""
+    n = nodes.shape[0]
+    out = np.empty((n, 2))
+    s_out = np.empty(n)
+    for i in prange(n):
+        f = nodes[i]
+        px, py = x[i, 0], x[i, 1]
+        s0 = _node_score(pts, px, py, f, tp, tv, qp, qv)
+        lo0 = hi0 = 0.0
+        if band >= 0:
+            lo0, hi0 = _node_area_range(pts, px, py, f, tp, tv, qp, qv)
+            lo0, hi0 = band * lo0, hi0 / band
+        r = radius * scale[i]
+        for _ in range(iterations):
+            bx = by = 0.0
+            bs = -np.inf
+            for c in range(directions.shape[0]):
+                qx, qy = px + directions[c, 0] * r, py + directions[c, 1] * r
+                if band >= 0:
+                    lo, hi = _node_area_range(pts, qx, qy, f, tp, tv, qp, qv)
+                    sc = _node_score(pts, qx, qy, f, tp, tv, qp, qv) if lo >= lo0 and hi <= hi0 else -np.inf
+                else:
+                    sc = _node_score(pts, qx, qy, f, tp, tv, qp, qv)
+                if c == 0 or sc > bs:  # np.argmax: the first best
+                    bx, by, bs = qx, qy, sc
+            if bs > s0:
+                px, py, s0 = bx, by, bs
+            else:
+                r = 0.5 * r
+        out[i, 0], out[i, 1], s_out[i] = px, py, s0
+    return out, s_out

@@ -487,6 +487,8 @@ def optimize(
     would happily shrink a cell to a sliver of good shape.  Returns
     (positions, scores).
     """
+    if isinstance(geom, _fast.FastGeometry):  # the same search, one compiled loop per node
+        return geom.compass(x, scale, iterations, radius, area_band, _COMPASS)
     s0 = geom.score(x)
     if area_band is not None:
         lo0, hi0 = geom.area_range(x)
