@@ -22,7 +22,7 @@ from anglesmooth.cli import cli
 from anglesmooth.errors import ConfigurationError
 from anglesmooth.mesh import Mesh2D
 from anglesmooth.smoothers import SMOOTHERS, _fast
-from anglesmooth.smoothers._local import BlockGeometry, angle_target, laplacian_target, local_scale
+from anglesmooth.smoothers._local import BlockGeometry, angle_target, laplacian_target, local_scale, optimize
 from anglesmooth.topology import build_topology
 
 MESHES = {
@@ -98,12 +98,12 @@ def test_kernels_agree_on_random_candidates_valid_invalid_and_degenerate(name, m
         np.testing.assert_array_equal(s_fast, s_ref)
         checked_invalid += int((s_ref < -2.5).sum())
         checked_degenerate += int((s_ref[-1] < -2.5).sum())
-        for a, b in zip(fast.area_range(X), ref.area_range(X)):
-            np.testing.assert_array_equal(a, b)
-        lo, hi = ref.area_range(cur)
-        np.testing.assert_array_equal(fast.banded_score(X, 0.8 * lo, hi / 0.8), ref.banded_score(X, 0.8 * lo, hi / 0.8))
         sub = np.arange(0, blk.size, 2)
         np.testing.assert_array_equal(fast.restrict(sub).score(X[:, sub]), ref.restrict(sub).score(X[:, sub]))
+        scale = local_scale(pts, topo, blk)
+        for band in (None, 0.8, 0.5):  # the compiled compass search against optimize's numpy loop
+            for a, b in zip(optimize(fast, cur, scale, 4, area_band=band), optimize(ref, cur, scale, 4, area_band=band)):
+                np.testing.assert_array_equal(a, b)
         np.testing.assert_array_equal(_fast.laplacian_target(pts, topo, blk), laplacian_target(pts, topo, blk))
         np.testing.assert_array_equal(_fast.local_scale(pts, topo, blk, sub), local_scale(pts, topo, blk, sub))
         np.testing.assert_allclose(_fast.angle_target(pts, topo, blk), angle_target(pts, topo, blk), rtol=0, atol=1e-12)

@@ -9,8 +9,12 @@ Why a compiled kernel
     0.15 s gathering), already with cache-sized chunks.  The loops here read
     the vertices straight from the point array through the topology's tables,
     keep every intermediate in registers and need no gather, no temporaries
-    and no per-chunk Python overhead (see ``benchmarks/README.md`` for the
-    measured figures).
+    and no per-chunk Python overhead.  Two of them do a whole per-node
+    procedure at once: the candidate choice of the robust ``angle`` update
+    (:func:`angle_choose`) and the compass search of ``optimize``
+    (:meth:`FastGeometry.compass`).  Loops over nodes run on every core
+    (numba ``prange``; ``NUMBA_NUM_THREADS`` limits it).  Measured figures:
+    ``benchmarks/README.md``.
 
 Same numbers
     Every function computes the same floating-point operations in the same
@@ -158,7 +162,8 @@ def angle_choose(points: np.ndarray, topo, blk, good: float):
 
 
 class FastGeometry:
-    """Compiled twin of :class:`._local.BlockGeometry`: the same methods, no gathered copies.
+    """Compiled stand-in for :class:`._local.BlockGeometry` (``n``, ``restrict``, ``score``) plus
+    the whole compass search of :func:`._local.optimize`; no gathered copies.
 
     It keeps a reference to ``points`` (which must not change while it is
     used: the block loop writes a block's moves only after its update) and
@@ -172,34 +177,19 @@ class FastGeometry:
         self.n = self._nodes.shape[0]
 
     def restrict(self, subset: np.ndarray) -> FastGeometry:
-        g = object.__new__(FastGeometry)
-        g._pts, g._topo, g._nodes = self._pts, self._topo, self._nodes[subset]
-        g.n = g._nodes.shape[0]
-        return g
+        return FastGeometry(self._pts, self._topo, None, self._nodes[subset])
 
-    def _call(self, fn, X, *extra):
+    def score(self, X: np.ndarray) -> np.ndarray:
+        """Local score at candidate positions ``X`` (..., n, 2) -> (..., n)."""
         t = self._topo
         _, _, tp, qp = _csr(t)
         X = np.asarray(X, dtype=np.float64)
-        lead = X.shape[:-2]
         Xf = np.ascontiguousarray(X.reshape((-1, self.n, 2)))
-        out = _run(fn, self._pts, Xf, self._nodes, tp, t.tri_verts, qp, t.quad_verts, *extra)
-        return lead, out
-
-    def score(self, X: np.ndarray) -> np.ndarray:
-        lead, s = self._call(_k().score, X)
-        return s.reshape(lead + (self.n,))
-
-    def area_range(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        lead, (lo, hi) = self._call(_k().area_range, X)
-        return lo.reshape(lead + (self.n,)), hi.reshape(lead + (self.n,))
-
-    def banded_score(self, X: np.ndarray, lo0: np.ndarray, hi0: np.ndarray) -> np.ndarray:
-        lead, s = self._call(_k().banded_score, X, lo0, hi0)
-        return s.reshape(lead + (self.n,))
+        s = _run(_k().score, self._pts, Xf, self._nodes, tp, t.tri_verts, qp, t.quad_verts)
+        return s.reshape(X.shape[:-2] + (self.n,))
 
     def compass(self, x, scale, iterations: int, radius: float, area_band: float | None, directions: np.ndarray):
-        """The whole compass search of :func:`._local.optimize` in one compiled loop."""
+        """:func:`._local.optimize` from positions ``x`` (n, 2): (positions, scores)."""
         t = self._topo
         _, _, tp, qp = _csr(t)
         band = -1.0 if area_band is None else float(area_band)
@@ -225,7 +215,7 @@ def warm_up() -> None:
     for blk in topo.blocks():
         g = FastGeometry(m.points, topo, blk)
         x = m.points[topo.free_nodes[blk.nodes]]
-        g.score(x), g.area_range(x), g.banded_score(x, *g.area_range(x))
+        g.score(x)
         g.compass(x, np.ones(g.n), 1, 0.25, 0.8, np.eye(2)), g.compass(x, np.ones(g.n), 1, 0.25, None, np.eye(2))
         angle_target(m.points, topo, blk), laplacian_target(m.points, topo, blk), local_scale(m.points, topo, blk)
         angle_choose(m.points, topo, blk, 0.5)

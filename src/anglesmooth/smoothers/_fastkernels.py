@@ -110,35 +110,6 @@ def score(pts, X, nodes, tp, tv, qp, qv):
     return out
 
 
-@njit(**_OPTS)
-def area_range(pts, X, nodes, tp, tv, qp, qv):
-    K, n = X.shape[0], X.shape[1]
-    lo = np.empty((K, n))
-    hi = np.empty((K, n))
-    for i in prange(n):
-        f = nodes[i]
-        for k in range(K):
-            lo[k, i], hi[k, i] = _node_area_range(pts, X[k, i, 0], X[k, i, 1], f, tp, tv, qp, qv)
-    return lo, hi
-
-
-@njit(**_OPTS)
-def banded_score(pts, X, nodes, tp, tv, qp, qv, lo0, hi0):
-    """The score where the node's incident areas stay within [lo0, hi0], -inf elsewhere (``optimize``)."""
-    K, n = X.shape[0], X.shape[1]
-    out = np.empty((K, n))
-    for i in prange(n):
-        f = nodes[i]
-        for k in range(K):
-            px, py = X[k, i, 0], X[k, i, 1]
-            lo, hi = _node_area_range(pts, px, py, f, tp, tv, qp, qv)
-            if lo >= lo0[i] and hi <= hi0[i]:
-                out[k, i] = _node_score(pts, px, py, f, tp, tv, qp, qv)
-            else:
-                out[k, i] = -np.inf
-    return out
-
-
 @njit(inline="always")
 def _node_angle(pts, f, free, sp, ring, sa, sb, frac):
     """``angle_target`` / ``_angle_sums`` for one node: the mean of its rotated spoke positions."""
