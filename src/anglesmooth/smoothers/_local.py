@@ -41,6 +41,7 @@ def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 _CHUNK = 16384  # rows per kernel call: the temporaries of one call stay in the L2 cache
+_SMALL = 4096  # up to this many rows, one ragged chunk (see _Rows)
 
 
 class _Rows:
@@ -52,19 +53,30 @@ class _Rows:
     ``d - 1`` vectorized minimums instead of a ``reduceat`` (which pays per
     segment).  ``chunks`` are (r0, r1, nodes, d) over the reordered rows, at
     most about ``_CHUNK`` rows each.
+
+    A set of at most ``_SMALL`` rows (the small blocks of a small mesh, the few
+    nodes that get optimized) is one *ragged* chunk instead, ``d`` then being
+    the array of row counts per node: one numpy call per operation rather than
+    one per distinct count, where the calls' overhead outweighs their work.
     """
 
     def __init__(self, rel: np.ndarray, n: int):
         counts = np.bincount(rel, minlength=n)
-        if rel.shape[0] and np.all(rel[1:] >= rel[:-1]):
+        m = rel.shape[0]
+        if m <= _SMALL:
+            self.perm = np.argsort(rel, kind="stable")
+            nodes = np.flatnonzero(counts)
+            self.chunks = [(0, m, nodes, counts[nodes])] if m else []
+            return
+        if np.all(rel[1:] >= rel[:-1]):
             offs = np.cumsum(counts) - counts
             nodes = np.argsort(counts, kind="stable")
             nodes = nodes[counts[nodes] > 0]
             c = counts[nodes]
-            self.perm = np.repeat(offs[nodes] - (np.cumsum(c) - c), c) + np.arange(rel.shape[0])
+            self.perm = np.repeat(offs[nodes] - (np.cumsum(c) - c), c) + np.arange(m)
         else:
             self.perm = np.lexsort((rel, counts[rel]))
-            first = np.ones(rel.shape[0], bool)
+            first = np.ones(m, bool)
             first[1:] = rel[self.perm][1:] != rel[self.perm][:-1]
             nodes = rel[self.perm][first]
             c = counts[nodes]
@@ -82,8 +94,13 @@ class _Rows:
                 r += (k1 - k0) * d
 
 
-def _rowreduce(vals: np.ndarray, d: int, ufunc=np.minimum) -> np.ndarray:
-    """``ufunc``-reduce every ``d`` consecutive values along the last axis: (..., m * d) -> (..., m)."""
+def _rowreduce(vals: np.ndarray, d, ufunc=np.minimum) -> np.ndarray:
+    """``ufunc``-reduce every ``d`` consecutive values along the last axis: (..., m * d) -> (..., m).
+
+    ``d`` may also be an array of run lengths (a ragged chunk of :class:`_Rows`).
+    """
+    if not isinstance(d, int):
+        return ufunc.reduceat(vals, np.cumsum(d) - d, axis=-1)
     w = vals.reshape(vals.shape[:-1] + (-1, d))
     out = w[..., 0].copy()
     for j in range(1, d):
