@@ -1,8 +1,9 @@
 """The numba kernels behind :mod:`._fast` (imported only when they are used).
 
-Each loop mirrors, operation for operation, the numpy expression it replaces
-in :mod:`._local` (named in each docstring); keep the two in step.  Loops over
-nodes run in parallel (``prange``): a node writes only its own outputs.
+Each per-node helper (``_node_*``) mirrors, operation for operation, the numpy
+code it replaces in :mod:`._local` or :mod:`.angle` (named in its docstring);
+keep the two in step.  The exported kernels loop over nodes in parallel
+(``prange``): a node reads the shared points and writes only its own outputs.
 """
 
 from __future__ import annotations
@@ -12,10 +13,11 @@ import math
 import numpy as np
 from numba import njit, prange
 
-_OPTS = dict(cache=True, error_model="numpy", parallel=True, nogil=True)
+from ._local import INVALID, INVERTED_WEIGHT
 
-INVALID = -3.0
-INVERTED_WEIGHT = 1000.0
+# error_model="numpy": x / 0 gives inf / NaN as in numpy instead of raising; no fastmath, so no
+# reassociation or fused multiply-adds and the same rounding as numpy
+_OPTS = {"cache": True, "error_model": "numpy", "parallel": True, "nogil": True}
 _TWO_PI = 2 * np.pi
 
 
