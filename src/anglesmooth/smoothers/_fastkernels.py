@@ -21,6 +21,15 @@ _OPTS = {"cache": True, "error_model": "numpy", "parallel": True, "nogil": True}
 _TWO_PI = 2 * np.pi
 
 
+def _kernel(fn):
+    """``njit`` with on-disk caching, or without it where numba finds no writable cache location
+    (read-only install and home directory): the kernels then compile in every process."""
+    try:
+        return njit(**_OPTS)(fn)
+    except RuntimeError:
+        return njit(**{**_OPTS, "cache": False})(fn)
+
+
 @njit(inline="always")
 def _node_score(pts, px, py, f, tp, tv, qp, qv):
     """``BlockGeometry.score`` for one node (free index ``f``) at (px, py): ``_tri_chunk`` / ``_quad_chunk``."""
@@ -101,7 +110,7 @@ def _node_area_range(pts, px, py, f, tp, tv, qp, qv):
     return lo, hi
 
 
-@njit(**_OPTS)
+@_kernel
 def score(pts, X, nodes, tp, tv, qp, qv):
     K, n = X.shape[0], X.shape[1]
     out = np.empty((K, n))
@@ -171,7 +180,7 @@ def _node_ring_mean(pts, f, free, rp, nbr, lengths):
     return sx / c, sy / c
 
 
-@njit(**_OPTS)
+@_kernel
 def angle_target(pts, nodes, free, sp, ring, sa, sb, frac):
     n = nodes.shape[0]
     out = np.empty((n, 2))
@@ -180,7 +189,7 @@ def angle_target(pts, nodes, free, sp, ring, sa, sb, frac):
     return out
 
 
-@njit(**_OPTS)
+@_kernel
 def ring_mean(pts, nodes, free, rp, nbr, lengths):
     n = nodes.shape[0]
     out = np.empty((n, 2))
@@ -189,7 +198,7 @@ def ring_mean(pts, nodes, free, rp, nbr, lengths):
     return out
 
 
-@njit(**_OPTS)
+@_kernel
 def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good):
     """Stages 1 and 2 of the robust ``angle`` update (``angle.step``), fused per node.
 
@@ -228,7 +237,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
     return new, best, refused
 
 
-@njit(**_OPTS)
+@_kernel
 def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, directions):
     """``optimize``: compass search per node, optionally within an area band (``band`` < 0: none)."""
     n = nodes.shape[0]
