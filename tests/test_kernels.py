@@ -182,7 +182,7 @@ def test_no_writable_cache_location_compiles_without_caching(tmp_path):
                PYTHONPATH=os.pathsep.join([str(Path(__file__).resolve().parents[1] / "src"), os.environ.get("PYTHONPATH", "")]))
     code = (
         "from anglesmooth import generate as gen, smooth\n"
-        "r = smooth(gen.paper_quad_mesh(0), 'angle', passes=2)\n"
+        "r = smooth(gen.paper_quad_mesh(0), 'laplacian', passes=2)\n"
         "print(r.passes)\n"
     )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600, cwd=tmp_path)
