@@ -38,6 +38,10 @@ Per-node tables
       ``quad_loc``/``quad_verts`` (m, 4): each cell around a free node, its
       nodes in counter-clockwise order starting at that node.
 
+    A free node is interior and manifold, so its edge spokes are exactly its
+    ring entries; without quads (no diagonal spokes) ``spoke_loc`` and
+    ``spoke_ring`` are the very arrays ``ring_loc`` and ``ring_nbr``.
+
 >>> import numpy as np
 >>> from anglesmooth.mesh import Mesh2D
 >>> pts = [[0, 0], [1, 0], [2, 0], [0, 1], [1, 1], [2, 1], [0, 2], [1, 2], [2, 2]]
@@ -208,23 +212,31 @@ def signed_areas(points: np.ndarray, tri: np.ndarray, quad: np.ndarray) -> np.nd
     [0.5]
     """
     out = np.empty(tri.shape[0] + quad.shape[0])
+    # gathers from the x and y columns (1-D) are much faster than from (N, 2) rows
+    x, y = points[:, 0], points[:, 1]
     if tri.shape[0]:
-        p0, p1, p2 = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
-        out[: tri.shape[0]] = 0.5 * _cross(p1 - p0, p2 - p0)
+        x0, y0 = x[tri[:, 0]], y[tri[:, 0]]
+        _half_cross(x[tri[:, 1]] - x0, y[tri[:, 1]] - y0, x[tri[:, 2]] - x0, y[tri[:, 2]] - y0, out[: tri.shape[0]])
     if quad.shape[0]:
-        p0, p1, p2, p3 = (points[quad[:, k]] for k in range(4))
-        out[tri.shape[0] :] = 0.5 * _cross(p2 - p0, p3 - p1)
+        q = [quad[:, k] for k in range(4)]
+        _half_cross(x[q[2]] - x[q[0]], y[q[2]] - y[q[0]], x[q[3]] - x[q[1]], y[q[3]] - y[q[1]], out[tri.shape[0] :])
     return out
 
 
-def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    return u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+def _half_cross(ux, uy, vx, vy, out: np.ndarray) -> None:
+    """``out = 0.5 * cross(u, v)``, rounded exactly as ``0.5 * (ux * vy - uy * vx)``."""
+    ux *= vy
+    uy *= vx
+    ux -= uy
+    np.multiply(ux, 0.5, out=out)
 
 
 def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
-    lo = np.minimum(a, b)
-    hi = np.maximum(a, b)
-    return lo * np.int64(n) + hi
+    """Undirected key ``min * n + max`` of every directed edge a -> b."""
+    key = np.minimum(a, b)
+    key *= n
+    key += np.maximum(a, b)
+    return key
 
 
 def _stable_order(key: np.ndarray):
@@ -238,17 +250,31 @@ def _stable_order(key: np.ndarray):
     m = key.shape[0]
     shift = max(int(m - 1).bit_length(), 1)
     if m == 0 or int(key.max()).bit_length() + shift <= 63:
-        packed = np.sort((key << shift) | np.arange(m, dtype=np.int64))
-        return packed & ((1 << shift) - 1), packed >> shift
+        packed = key << shift
+        packed |= np.arange(m, dtype=np.int64)
+        packed.sort()
+        order = packed & ((1 << shift) - 1)
+        packed >>= shift
+        return order, packed
     order = np.argsort(key, kind="stable")
     return order, key[order]
 
 
 def _cell_edges(tri: np.ndarray, quad: np.ndarray):
     """Directed edges (a -> b) of every cell; edge h is also corner h (at node a[h])."""
-    a = np.concatenate([tri.ravel(), quad.ravel()])
-    b = np.concatenate([tri[:, [1, 2, 0]].ravel(), quad[:, [1, 2, 3, 0]].ravel()])
-    return a, b
+    return _cell_shift(tri, quad, 0), _cell_shift(tri, quad, 1)
+
+
+def _cell_shift(tri: np.ndarray, quad: np.ndarray, step: int) -> np.ndarray:
+    """For every corner (triangles, then quads, cell by cell), the node ``step`` places further counter-clockwise."""
+    out = np.empty(tri.size + quad.size, np.int64)
+    for cells, part in ((tri, out[: tri.size]), (quad, out[tri.size :])):
+        k = cells.shape[1]
+        part = part.reshape(-1, k)
+        s = step % k
+        part[:, : k - s] = cells[:, s:]
+        part[:, k - s :] = cells[:, :s]
+    return out
 
 
 def _edge_cell(nt: int, nq: int) -> np.ndarray:
@@ -256,20 +282,20 @@ def _edge_cell(nt: int, nq: int) -> np.ndarray:
     return np.concatenate([np.repeat(np.arange(nt), 3), nt + np.repeat(np.arange(nq), 4)])
 
 
-def _corner_shift(nt: int, nq: int, step: int) -> np.ndarray:
-    """Index of the corner ``step`` places further counter-clockwise in the same cell, for every corner."""
-    t = (3 * np.arange(nt)[:, None] + (np.arange(step, step + 3) % 3)).ravel()
-    q = (3 * nt + 4 * np.arange(nq)[:, None] + (np.arange(step, step + 4) % 4)).ravel()
-    return np.concatenate([t, q])
-
-
 class _HalfEdges:
-    """Directed cell edges sorted by their undirected key (stable): twins are adjacent."""
+    """Directed cell edges sorted by their undirected key (stable): twins are adjacent.
+
+    ``order`` sorts the edges, ``ks`` are the sorted keys ``lo * n + hi`` and
+    ``a_s`` the sorted tails; ``same[q]`` says that sorted position q + 1 is
+    the same undirected edge as q, ``dup[q]`` that it also runs the same way.
+    """
 
     def __init__(self, tri: np.ndarray, quad: np.ndarray, n: int):
         self.a, self.b = _cell_edges(tri, quad)
         self.order, self.ks = _stable_order(_edge_keys(self.a, self.b, n))
         self.same = self.ks[1:] == self.ks[:-1]
+        self.a_s = self.a[self.order]
+        self.dup = self.same & (self.a_s[1:] == self.a_s[:-1])
 
 
 def _components(n: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -294,12 +320,12 @@ def _orient(points, tri, quad, he: _HalfEdges):
     """Flip cells so that each consistently wound patch is counter-clockwise."""
     nt, nq = tri.shape[0], quad.shape[0]
     nc = nt + nq
-    i0, i1 = he.order[:-1][he.same], he.order[1:][he.same]
-    consistent = he.a[i0] != he.a[i1]  # opposite directions
     area = signed_areas(points, tri, quad)
-    if consistent.all():
+    if not he.dup.any():  # every shared edge is traversed in opposite directions
         flip = np.full(nc, area.sum() < 0)
     else:
+        i0, i1 = he.order[:-1][he.same], he.order[1:][he.same]
+        consistent = he.a[i0] != he.a[i1]  # opposite directions
         cell = _edge_cell(nt, nq)
         comp = _components(nc, cell[i0][consistent], cell[i1][consistent])
         total = np.bincount(comp, weights=area, minlength=nc)
@@ -327,42 +353,205 @@ def _colour(n: int, free: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarra
     keep = free[u] & free[v] & (u != v)
     u, v = u[keep], v[keep]
     prio = np.random.default_rng(12345).permutation(n).astype(np.int64)
+    # the node of lower priority loses the pair in every round: find it once
+    u_loses = prio[u] < prio[v]
+    lose, win = np.where(u_loses, u, v), np.where(u_loses, v, u)
     remaining = free.copy()
     loses = np.zeros(n, bool)
     k = 0
     while remaining.any():
-        pu, pv = prio[u], prio[v]
-        loses[np.where(pu < pv, u, v)] = True
+        loses[lose] = True
         pick = remaining & ~loses
         colour[pick] = k
         remaining &= loses
         loses[:] = False
-        alive = remaining[u] & remaining[v]
-        u, v = u[alive], v[alive]
+        alive = remaining[win]  # a loser is never coloured in its round
+        lose, win = lose[alive], win[alive]
         k += 1
     return colour
 
 
-def _by_loc(loc: np.ndarray, width: int, value: np.ndarray):
-    """Rows with a free owner (``loc >= 0``) sorted by (loc, value) with one packed ``np.sort``.
+def _region_interfaces(n: int, parts) -> np.ndarray:
+    """Nodes whose corners do not all carry one region; ``parts`` are (cells, region of each cell) pairs."""
+    some = np.empty(n, np.int64)  # the region of some corner of each node
+    for cells, reg in parts:
+        for k in range(cells.shape[1]):
+            some[cells[:, k]] = reg
+    mixed = np.zeros(n, bool)
+    for cells, reg in parts:
+        for k in range(cells.shape[1]):
+            col = cells[:, k]
+            mixed[col[reg != some[col]]] = True
+    return mixed
 
-    ``value`` (< width) orders the rows of one owner; returns (loc, value) of the sorted rows.
+
+def _pairing(he: _HalfEdges, starts: np.ndarray, e_lo: np.ndarray, n: int):
+    """Twins of the directed edges, per node and per edge.
+
+    A directed edge is paired when its edge also holds one running the other
+    way; a self-edge v -> v pairs with itself.  Returns ``paired`` (N,), the
+    number of paired directed edges leaving each node, and ``up``, ``down``
+    (E,): the first two directed edges of each edge's run, as lo -> hi and
+    hi -> lo when the run is such a pair (meaningless otherwise).  ``paired``
+    is exact at nodes whose edges are each used by at most two cells, which are
+    the only nodes it is asked about (the others are fixed as non-manifold).
     """
+    opposite = he.same & ~he.dup  # sorted positions q, q + 1: one edge, both directions
+    twin = np.zeros(he.a_s.shape[0], bool)
+    twin[:-1] = opposite
+    twin[1:] |= opposite
+    paired = np.bincount(he.a_s[twin], minlength=n)
+    loops = he.a == he.b
+    if loops.any():
+        paired += np.bincount(he.a[loops], minlength=n)
+    s0 = he.order[starts]
+    s1 = he.order[np.minimum(starts + 1, he.order.shape[0] - 1)]
+    up = np.where(he.a_s[starts] == e_lo, s0, s1)  # lo -> hi
+    down = s0
+    down += s1
+    down -= up  # the other one
+    return paired, up, down
+
+
+def _rings(edges: np.ndarray, deg: np.ndarray, n: int):
+    """CSR of edge neighbours (rows ascending) and the edge behind every entry.
+
+    Row v lists the neighbours below v (edges with hi == v, by lo), then those
+    above it (edges with lo == v, by hi: ``edges`` is sorted by (lo, hi)); a
+    self-edge (v, v) appears once in each part.  ``deg`` is the row length.
+    """
+    lo, hi = edges[:, 0], edges[:, 1]
+    ne = edges.shape[0]
+    offsets = np.zeros(n + 1, np.int64)
+    np.cumsum(deg, out=offsets[1:])
+    n_lo = np.bincount(lo, minlength=n)
+    n_hi = np.bincount(hi, minlength=n)
+    eid = np.arange(ne, dtype=np.int64)
+    indices = np.empty(2 * ne, np.int64)
+    edge = np.empty(2 * ne, np.int64)
+    # upper part: edge e is entry e - (first edge with this lo) of lo's upper part
+    pos = (offsets[:-1] + n_hi - (np.cumsum(n_lo) - n_lo))[lo]
+    pos += eid
+    indices[pos] = hi
+    edge[pos] = eid
+    # lower part: the edges in (hi, lo) order; the q-th one is entry q - (first of its hi)
+    by_hi, hi_sorted = _stable_order(hi)
+    pos = (offsets[:-1] - (np.cumsum(n_hi) - n_hi))[hi_sorted]
+    pos += eid
+    indices[pos] = lo[by_hi]
+    edge[pos] = by_hi
+    return offsets, indices, edge
+
+
+def _rows(offsets: np.ndarray, nodes: np.ndarray):
+    """The CSR rows of ``nodes``, concatenated: (position in ``nodes``, CSR entry) of every entry."""
+    start = offsets[nodes]
+    count = offsets[nodes + 1] - start
+    owner = np.repeat(np.arange(nodes.shape[0], dtype=np.int64), count)
+    entry = np.repeat(start - (np.cumsum(count) - count), count)
+    entry += np.arange(entry.shape[0], dtype=np.int64)
+    return owner, entry
+
+
+def _edge_spokes(tri: np.ndarray, quad: np.ndarray, centre: np.ndarray, ring: np.ndarray, up, down):
+    """(a, b, frac) of the edge spokes (centre p, ring node j).
+
+    ``up`` / ``down`` are the directed edges lo -> hi / hi -> lo of each
+    spoke's edge (overwritten).  p is free, so that edge holds exactly p -> j
+    and j -> p.  Corner (p, j, x) of the cell of p -> j gives a = x (two
+    places after p); corner (x, j, p) of the cell of j -> p gives b = x (just
+    before j).
+    """
+    h_out = np.where(centre < ring, up, down)  # p -> j: lo -> hi when p is the lower node
+    h_in = up
+    h_in += down
+    h_in -= h_out  # j -> p
+    before = _cell_shift(tri, quad, -1)
+    spoke_b = before[h_in]
+    spoke_a = (_cell_shift(tri, quad, 2) if quad.size else before)[h_out]  # the same node in a triangle
+    # frac = ideal angle of the a side / both; a side in the cell of p -> j, b side in that of j -> p
+    ideal = np.array([TRI_IDEAL, QUAD_IDEAL])
+    frac = (ideal[:, None] / (ideal[:, None] + ideal[None, :])).ravel()
+    side = (h_out >= tri.size).view(np.uint8) * np.uint8(2)
+    side += h_in >= tri.size
+    return spoke_a, spoke_b, frac[side]
+
+
+def _with_diagonals(quad: np.ndarray, loc_of: np.ndarray, nf: int, spokes):
+    """Merge the diagonal spokes of quads after the edge spokes (loc, ring, a, b, frac) of each node.
+
+    Every quad corner j (b before it, a after it) gives the opposite corner's
+    node, when free, a spoke to j with sides a and b and frac 1/2; the
+    diagonal spokes of one node are in corner order.
+    """
+    no_tri = np.zeros((0, 3), np.int64)
+    e_loc = spokes[0]
+    d_loc, qc = _by_loc(loc_of[_cell_shift(no_tri, quad, 2)], quad.size, np.arange(quad.size, dtype=np.int64))
+    ne = np.bincount(e_loc, minlength=nf)
+    nd = np.bincount(d_loc, minlength=nf)
+    off = np.zeros(nf + 1, np.int64)
+    np.cumsum(ne + nd, out=off[1:])
+    pos_e = np.arange(e_loc.shape[0]) - (np.cumsum(ne) - ne)[e_loc] + off[e_loc]
+    pos_d = np.arange(d_loc.shape[0]) - (np.cumsum(nd) - nd)[d_loc] + off[d_loc] + ne[d_loc]
+    m = off[-1]
+    merged = []
+    for e_col, d_col in zip(
+        spokes,
+        (
+            d_loc,
+            quad.ravel()[qc],
+            _cell_shift(no_tri, quad, 1)[qc],
+            _cell_shift(no_tri, quad, -1)[qc],
+            np.full(qc.shape[0], 0.5),
+        ),
+    ):
+        col = np.empty(m, e_col.dtype)
+        col[pos_e] = e_col
+        col[pos_d] = d_col
+        merged.append(col)
+    return tuple(merged)
+
+
+def _by_loc(loc: np.ndarray, width: int, value: np.ndarray):
+    """Rows with a free owner (``loc >= 0``) sorted by (loc, value); returns (loc, value) of the sorted rows.
+
+    ``value`` (0 <= value < width) orders the rows of one owner.  Both are
+    packed into one int64 key for a plain ``np.sort``; rows of fixed owners
+    (loc = -1) get negative keys, sort first and are cut off.  Falls back to
+    ``np.lexsort`` when the key would not fit in 63 bits.  ``loc`` is
+    overwritten.
+    """
+    shift = max(int(width - 1).bit_length(), 1)
+    if loc.shape[0] == 0 or int(loc.max()).bit_length() + shift <= 63:
+        key = loc
+        key <<= shift
+        key |= value
+        key.sort()
+        key = key[np.searchsorted(key, 0) :]
+        loc = key >> shift
+        key &= (1 << shift) - 1
+        return loc, key
     keep = loc >= 0
-    key = np.sort(loc[keep] * np.int64(width) + value[keep])
-    return key // width, key % width
+    loc, value = loc[keep], value[keep]
+    o = np.lexsort((value, loc))
+    return loc[o], value[o]
 
 
-def _incidence(cells: np.ndarray, loc_of: np.ndarray):
+def _incidence(cells: np.ndarray, loc_of: np.ndarray, free_nodes: np.ndarray):
     """(loc, rotated cell) for every corner at a free node, sorted by (loc, rotation, cell)."""
     nc, k = cells.shape
     width = k * nc
-    loc, r = _by_loc(loc_of[cells.T.ravel()], max(width, 1), np.arange(width, dtype=np.int64))
-    cell, rot = r % max(nc, 1), r // max(nc, 1)
-    flat = cells.ravel()
+    # ext[r], r = rotation * nc + cell, is the node of that corner; the nodes after it in
+    # the cell are ext[r + nc], ext[r + 2 nc], ... (ext repeats the first k - 1 rotations)
+    ext = np.empty(width + (k - 1) * nc, np.int64)
+    ext[:width].reshape(k, nc)[:] = cells.T
+    ext[width:] = ext[: (k - 1) * nc]
+    loc, r = _by_loc(loc_of[ext[:width]], width, np.arange(width, dtype=np.int64))
     verts = np.empty((r.shape[0], k), np.int64)
-    for m in range(k):
-        verts[:, m] = flat[k * cell + (rot + m) % k]
+    verts[:, 0] = free_nodes[loc]  # the node itself
+    for m in range(1, k):
+        r += nc
+        np.take(ext, r, out=verts[:, m], mode="clip")  # all in range; "clip" writes straight into the column
     return loc, verts
 
 
@@ -386,14 +575,15 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
     nt, nq = tri.shape[0], quad.shape[0]
 
     # --- edges -----------------------------------------------------------
-    a, b, order, ks = he.a, he.b, he.order, he.ks
-    first = np.empty(ks.shape[0], bool)
+    a, nh = he.a, he.a.shape[0]
+    first = np.empty(nh, bool)
     first[0] = True
     np.logical_not(he.same, out=first[1:])
-    starts = np.flatnonzero(first)
-    uniq = ks[starts]
-    counts = np.diff(np.append(starts, ks.shape[0]))
-    edges = np.stack([uniq // n, uniq % n], axis=1)
+    starts = np.flatnonzero(first)  # sorted position of the first directed edge of each edge
+    counts = np.diff(np.append(starts, nh))
+    uniq = he.ks[starts]  # lo * n + hi of each edge
+    e_lo = uniq // n
+    edges = np.stack([e_lo, uniq - e_lo * n], axis=1)
     bnd_edges = edges[counts == 1]
     boundary = np.zeros(n, bool)
     boundary[bnd_edges.ravel()] = True
@@ -410,17 +600,14 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
     fixed |= mesh.pinned
     # interfaces between regions: a node whose corners do not all carry the region of one of them
     if mesh.triangle_region is not None or mesh.quad_region is not None:
-        reg = np.concatenate(
+        none = -(2**62)
+        mixed = _region_interfaces(
+            n,
             [
-                mesh.triangle_region if mesh.triangle_region is not None else np.full(nt, -(2**62)),
-                mesh.quad_region if mesh.quad_region is not None else np.full(nq, -(2**62)),
-            ]
+                (tri, mesh.triangle_region if mesh.triangle_region is not None else np.full(nt, none)),
+                (quad, mesh.quad_region if mesh.quad_region is not None else np.full(nq, none)),
+            ],
         )
-        reg_all = np.concatenate([np.repeat(reg[:nt], 3), np.repeat(reg[nt:], 4)])
-        some = np.empty(n, np.int64)
-        some[a] = reg_all
-        mixed = np.zeros(n, bool)
-        mixed[a[reg_all != some[a]]] = True
         iface = mixed & ~fixed
         reasons["region interfaces"] = int(iface.sum())
         fixed |= iface
@@ -431,12 +618,10 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
     deg_cells = np.bincount(a, minlength=n)
     nm |= used & ~boundary & (deg_edges != deg_cells)
     # consistent orientation around the node: every interior edge is traversed both ways
-    a_s = a[order]
-    dup_same = he.same & (a_s[1:] == a_s[:-1])
-    if dup_same.any():
-        bad = order[:-1][dup_same]
+    if he.dup.any():
+        bad = he.order[:-1][he.dup]
         nm[a[bad]] = True
-        nm[b[bad]] = True
+        nm[he.b[bad]] = True
     nm &= ~fixed
     reasons["non-manifold"] = int(nm.sum())
     fixed |= nm
@@ -454,39 +639,17 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
             mask[ef] = True
         reasons["user"] = int((mask & ~fixed).sum())
         fixed = fixed | mask
-
-    # --- rings (CSR of edge neighbours) ----------------------------------
-    rkey = np.sort(np.concatenate([uniq, edges[:, 1] * np.int64(n) + edges[:, 0]]))
-    src, dst = rkey // n, rkey % n
-    ring_offsets = np.zeros(n + 1, np.int64)
-    np.cumsum(np.bincount(src, minlength=n), out=ring_offsets[1:])
-
-    # --- spokes ------------------------------------------------------------
-    # Corner c = (prev, node, next) of a cell; the directed edge h = c runs node -> next.
-    # side A: corner (p, j, x) gives spoke (center=p, ring=j) with a = x
-    # side B: corner (x, j, q) gives spoke (center=q, ring=j) with b = x
-    # The side-B corner of spoke (p, j) is the twin p <- j of the edge p -> j into
-    # side-A corner c: the first (lowest) directed edge j -> p, found in the
-    # sorted run of edge {p, j} (runs are stable, so ascending in h).
-    nh = a.shape[0]
-    gid = np.cumsum(first) - 1  # run of each sorted position
-    lo_s = edges[gid, 0]
-    b_s = b[order]
-    first_lo = np.minimum.reduceat(np.where(a_s == lo_s, order, nh), starts)
-    first_hi = np.minimum.reduceat(np.where(a_s != lo_s, order, nh), starts)
-    twin = np.empty(nh, np.int64)
-    twin[order] = np.where(b_s == lo_s, first_lo[gid], first_hi[gid])
-    pred = _corner_shift(nt, nq, -1)
-    twin_in = twin[pred]  # side-B corner of every side-A corner, nh when unpaired
-    prev = a[pred]
-    matched = twin_in < nh
     # a free node needs every one of its edges paired (closed fan)
-    paired = np.bincount(prev[matched], minlength=n)
+    paired, up, down = _pairing(he, starts, e_lo, n)
+    del he, a  # the directed edges are not needed any more
     open_fan = used & ~fixed & (paired != deg_edges)
     if open_fan.any():
         reasons["non-manifold"] = reasons.get("non-manifold", 0) + int(open_fan.sum())
         fixed = fixed | open_fan
     free = ~fixed
+
+    # --- rings (CSR of edge neighbours) ----------------------------------
+    ring_offsets, ring_indices, ring_edge = _rings(edges, deg_edges, n)
 
     # --- colouring: nodes sharing a cell get different colours -----------
     pu, pv = [edges[:, 0]], [edges[:, 1]]
@@ -503,52 +666,21 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
     nf = free_nodes.shape[0]
 
     # --- per-node tables, sorted by loc ----------------------------------
-    ring_loc, ring_nbr = _by_loc(loc_of[src], n, dst)
-    # edge spokes: side-A corners with a free centre, by (loc, ring node, corner)
-    rows = np.flatnonzero(matched & (loc_of[prev] >= 0))
-    e_loc = loc_of[prev[rows]]
-    o, _ = _stable_order(e_loc * np.int64(n) + a[rows])
-    rows, e_loc = rows[o], e_loc[o]
-    c_b = twin_in[rows]
-    e_ideal_a = np.where(rows < 3 * nt, TRI_IDEAL, QUAD_IDEAL)
-    e_ideal_b = np.where(c_b < 3 * nt, TRI_IDEAL, QUAD_IDEAL)
-    spoke_loc = e_loc
-    spoke_ring = a[rows]
-    spoke_a = b[rows]
-    spoke_b = prev[c_b]
-    spoke_frac = e_ideal_a / (e_ideal_a + e_ideal_b)
+    # rings: the CSR rows of the free nodes in loc order
+    ring_loc, entry = _rows(ring_offsets, free_nodes)
+    ring_nbr = ring_indices[entry]
+    # edge spokes: one per ring entry (a free node is interior and manifold)
+    e = ring_edge[entry]
+    del entry, ring_edge
+    spokes = (ring_loc, ring_nbr, *_edge_spokes(tri, quad, free_nodes[ring_loc], ring_nbr, up[e], down[e]))
+    del e, up, down
     if nq:
-        # diagonal spokes (quads): centre = opposite corner, after the edge spokes of each node
-        qc = np.arange(3 * nt, nh)
-        d_loc = loc_of[a[_corner_shift(nt, nq, 2)[3 * nt :]]]
-        keep = d_loc >= 0
-        qc, d_loc = qc[keep], d_loc[keep]
-        o, _ = _stable_order(d_loc)
-        qc, d_loc = qc[o], d_loc[o]
-        ne = np.bincount(e_loc, minlength=nf)
-        nd = np.bincount(d_loc, minlength=nf)
-        off = np.zeros(nf + 1, np.int64)
-        np.cumsum(ne + nd, out=off[1:])
-        pos_e = np.arange(e_loc.shape[0]) - (np.cumsum(ne) - ne)[e_loc] + off[e_loc]
-        pos_d = np.arange(d_loc.shape[0]) - (np.cumsum(nd) - nd)[d_loc] + off[d_loc] + ne[d_loc]
-        m = off[-1]
-        merged = []
-        for e_col, d_col in (
-            (spoke_loc, d_loc),
-            (spoke_ring, a[qc]),
-            (spoke_a, b[qc]),
-            (spoke_b, prev[qc]),
-            (spoke_frac, np.full(qc.shape[0], 0.5)),
-        ):
-            col = np.empty(m, e_col.dtype)
-            col[pos_e] = e_col
-            col[pos_d] = d_col
-            merged.append(col)
-        spoke_loc, spoke_ring, spoke_a, spoke_b, spoke_frac = merged
+        spokes = _with_diagonals(quad, loc_of, nf, spokes)
+    spoke_loc, spoke_ring, spoke_a, spoke_b, spoke_frac = spokes
     # incidence: every cell around a free node, rotated to start at that node;
     # row r = k * n_cells + cell (rotation k major), rows of one node in r order
-    tri_loc, tri_verts = _incidence(tri, loc_of)
-    quad_loc, quad_verts = _incidence(quad, loc_of)
+    tri_loc, tri_verts = _incidence(tri, loc_of, free_nodes)
+    quad_loc, quad_verts = _incidence(quad, loc_of, free_nodes)
 
     return Topology(
         n_points=n,
@@ -561,7 +693,7 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
         fixed=fixed,
         fixed_reasons=reasons,
         ring_offsets=ring_offsets,
-        ring_indices=dst,
+        ring_indices=ring_indices,
         colour=np.where(free, colour, -1),
         free_nodes=free_nodes,
         block_offsets=block_offsets,
