@@ -106,8 +106,9 @@ def smooth(
     t0 = time.perf_counter()
     topo = topology if topology is not None else build_topology(mesh, fixed)
     pts = np.array(mesh.points, dtype=np.float64, copy=True)
-    e = topo.edges
-    mean_edge = float(np.mean(np.hypot(*(pts[e[:, 1]] - pts[e[:, 0]]).T))) if e.shape[0] else 1.0
+    e0, e1 = topo.edges[:, 0], topo.edges[:, 1]
+    x, y = pts[:, 0], pts[:, 1]  # column gathers: much faster than gathering (N, 2) rows
+    mean_edge = float(np.mean(np.hypot(x[e1] - x[e0], y[e1] - y[e0]))) if e0.shape[0] else 1.0
     mean_edge = mean_edge if mean_edge > 0 else 1.0
     # the per-colour guard is exact; only simultaneous (Jacobi) moves need a whole-mesh check
     recheck = guard and order != "colour"

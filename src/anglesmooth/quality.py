@@ -128,61 +128,112 @@ METRICS: dict[str, str] = {
 
 
 class _Corners(NamedTuple):
-    """Edge vectors and corner quantities of one cell type, computed once."""
+    """Edge vectors and corner quantities of one cell type, computed once.
 
-    length: np.ndarray  # (n, k) length of edge k: node k -> node k+1
-    cross: np.ndarray  # (n, k) cross(next - v, prev - v) at corner k
-    angle: np.ndarray  # (n, k) corner angle in degrees, [0, 360)
+    Arrays are (k, n): row k is corner / edge k of every cell, so that all the
+    arithmetic runs on contiguous rows (the public functions return (n, k)).
+    """
+
+    length: np.ndarray  # (k, n) length of edge k: node k -> node k+1
+    cross: np.ndarray  # (k, n) cross(next - v, prev - v) at corner k
+    angle: np.ndarray  # (k, n) corner angle in degrees, [0, 360)
+
+
+def _edges(points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(ex, ey), each (k, n): e_k = p_{k+1} - p_k for (n, k) cells."""
+    pts = np.asarray(points, dtype=np.float64)
+    index = np.ascontiguousarray(cells.T)  # (k, n); a gather takes the layout of its index
+    out = []
+    for coord in (pts[:, 0], pts[:, 1]):
+        c = coord[index]
+        e = np.empty_like(c)
+        np.subtract(c[1:], c[:-1], out=e[:-1])
+        np.subtract(c[0], c[-1], out=e[-1])
+        out.append(e)
+    return out[0], out[1]
+
+
+def _cross(ex: np.ndarray, ey: np.ndarray) -> np.ndarray:
+    """cross(next - v, prev - v) = cross(e_{k-1}, e_k) at every corner k, (k, n)."""
+    out = np.empty_like(ex)
+    for k in range(ex.shape[0]):
+        j = k - 1  # e_{k-1}, wrapping to the last edge
+        np.multiply(ex[j], ey[k], out=out[k])
+        out[k] -= ey[j] * ex[k]
+    return out
 
 
 def _corners(points: np.ndarray, cells: np.ndarray) -> _Corners:
-    """Edge lengths, corner cross products and corner angles of (n, k) ccw cells."""
-    pts = np.asarray(points, dtype=np.float64)
-    p = pts[cells]  # (n, k, 2)
-    e = np.roll(p, -1, axis=1) - p  # e_k = p_{k+1} - p_k
-    ex, ey = e[..., 0], e[..., 1]
-    exp, eyp = np.roll(ex, 1, axis=1), np.roll(ey, 1, axis=1)  # e_{k-1} = p_k - p_{k-1}
+    """Edge lengths, corner cross products and corner angles of (n, k) ccw cells, as (k, n) arrays."""
+    ex, ey = _edges(points, cells)
     # at corner k: a = next - v = e_k, b = prev - v = -e_{k-1}
-    cross = exp * ey - eyp * ex  # cross(a, b) = cross(e_{k-1}, e_k)
-    dot = -(ex * exp + ey * eyp)  # dot(a, b)
-    ang = np.arctan2(cross, dot)
+    cross = _cross(ex, ey)  # cross(a, b) = cross(e_{k-1}, e_k)
+    dot = np.empty_like(ex)  # dot(a, b) = -(e_k . e_{k-1})
+    for k in range(ex.shape[0]):
+        np.multiply(ex[k], ex[k - 1], out=dot[k])
+        dot[k] += ey[k] * ey[k - 1]
+    np.negative(dot, out=dot)
+    ang = np.arctan2(cross, dot, out=dot)
     ang *= _R2D
     np.add(ang, 360.0, out=ang, where=ang < 0)
     np.minimum(ang, _BELOW_360, out=ang)  # -tiny + 360 rounds to 360
-    length = np.hypot(ex, ey)
+    length = np.hypot(ex, ey, out=ex)
     # a corner with a zero-length edge has no angle: call it 0 (atan2(0, -0) would say 180)
-    ang[(length == 0) | (np.roll(length, 1, axis=1) == 0)] = 0.0
+    zero = length == 0
+    zero |= np.roll(zero, 1, axis=0)
+    ang[zero] = 0.0
     return _Corners(length, cross, ang)
 
 
 def _cap(num: np.ndarray, den: np.ndarray) -> np.ndarray:
-    """num / den, VERDICT_DBL_MAX where den == 0, capped at VERDICT_DBL_MAX (num >= 0, den >= 0)."""
-    out = np.full(num.shape, VERDICT_DBL_MAX)
+    """num / den, VERDICT_DBL_MAX where den == 0, capped at VERDICT_DBL_MAX (num >= 0, den >= 0); overwrites num."""
     ok = den > 0
-    np.divide(num, den, out=out, where=ok)
-    return np.minimum(out, VERDICT_DBL_MAX, out=out)
+    np.divide(num, den, out=num, where=ok)
+    num[~ok] = VERDICT_DBL_MAX
+    return np.minimum(num, VERDICT_DBL_MAX, out=num)
 
 
 def _tri_aspect(c: _Corners, area: np.ndarray) -> np.ndarray:
-    lsum = c.length.sum(axis=1)
-    return _cap(c.length.max(axis=1) * lsum, (4.0 * np.sqrt(3.0)) * np.abs(area))
+    num = c.length.max(axis=0)
+    num *= c.length.sum(axis=0)
+    den = np.abs(area)
+    den *= 4.0 * np.sqrt(3.0)
+    return _cap(num, den)
 
 
 def _tri_radius(c: _Corners, area: np.ndarray) -> np.ndarray:
     l = c.length
-    return _cap(l[:, 0] * l[:, 1] * l[:, 2] * l.sum(axis=1), 16.0 * area * area)
+    num = l[0] * l[1]
+    num *= l[2]
+    num *= l.sum(axis=0)
+    den = 16.0 * area
+    den *= area
+    return _cap(num, den)
 
 
 def _quad_jac(c: _Corners) -> np.ndarray:
-    lp = np.roll(c.length, 1, axis=1)  # |e_{k-1}|
+    lp = np.roll(c.length, 1, axis=0)  # |e_{k-1}|
     den = lp * c.length
     out = np.zeros(c.cross.shape)
     np.divide(c.cross, den, out=out, where=den > 0)
-    return out.min(axis=1)
+    return out.min(axis=0)
 
 
 def _quad_aspect(c: _Corners, area: np.ndarray) -> np.ndarray:
-    return _cap(c.length.max(axis=1) * c.length.sum(axis=1), 4.0 * np.abs(area))
+    num = c.length.max(axis=0)
+    num *= c.length.sum(axis=0)
+    den = np.abs(area)
+    den *= 4.0
+    return _cap(num, den)
+
+
+def _tri_area(c: _Corners) -> np.ndarray:
+    """Signed triangle areas from the cross product at corner 0.
+
+    Bit-identical to :func:`anglesmooth.topology.signed_areas`: cross(p0 - p2,
+    p1 - p0) rounds like cross(p1 - p0, p2 - p0) (exact negations, same products).
+    """
+    return 0.5 * c.cross[0]
 
 
 def corner_angles(points: np.ndarray, topo: Topology) -> tuple[np.ndarray, np.ndarray]:
@@ -216,7 +267,7 @@ def corner_angles(points: np.ndarray, topo: Topology) -> tuple[np.ndarray, np.nd
     >>> np.round(t, 6).tolist(), q.shape
     ([[90.0, 45.0, 45.0]], (0, 4))
     """
-    return _corners(points, topo.tri).angle, _corners(points, topo.quad).angle
+    return tuple(np.ascontiguousarray(_corners(points, cells).angle.T) for cells in (topo.tri, topo.quad))
 
 
 def cell_min_angles(points: np.ndarray, topo: Topology) -> np.ndarray:
@@ -233,8 +284,8 @@ def cell_min_angles(points: np.ndarray, topo: Topology) -> np.ndarray:
     >>> cell_min_angles(m.points, build_topology(m)).round(6).tolist()
     [45.0, 90.0]
     """
-    t, q = corner_angles(points, topo)
-    return np.concatenate([t.min(axis=1, initial=np.inf), q.min(axis=1, initial=np.inf)])
+    t, q = (_corners(points, cells).angle for cells in (topo.tri, topo.quad))
+    return np.concatenate([t.min(axis=0, initial=np.inf), q.min(axis=0, initial=np.inf)])
 
 
 def cell_max_angles(points: np.ndarray, topo: Topology) -> np.ndarray:
@@ -251,8 +302,8 @@ def cell_max_angles(points: np.ndarray, topo: Topology) -> np.ndarray:
     >>> cell_max_angles(m.points, build_topology(m)).round(6).tolist()
     [90.0, 90.0]
     """
-    t, q = corner_angles(points, topo)
-    return np.concatenate([t.max(axis=1, initial=-np.inf), q.max(axis=1, initial=-np.inf)])
+    t, q = (_corners(points, cells).angle for cells in (topo.tri, topo.quad))
+    return np.concatenate([t.max(axis=0, initial=-np.inf), q.max(axis=0, initial=-np.inf)])
 
 
 def cell_areas(points: np.ndarray, topo: Topology) -> np.ndarray:
@@ -305,9 +356,7 @@ def invalid_cells(points: np.ndarray, topo: Topology) -> np.ndarray:
     >>> invalid_cells(dart.points, build_topology(dart)).tolist()
     [True]
     """
-    return np.concatenate(
-        [~(_corners(points, cells).cross > 0).all(axis=1) for cells in (topo.tri, topo.quad)]
-    )
+    return np.concatenate([~(_cross(*_edges(points, cells)) > 0).all(axis=0) for cells in (topo.tri, topo.quad)])
 
 
 def nonconvex_quads(points: np.ndarray, topo: Topology) -> np.ndarray:
@@ -326,9 +375,9 @@ def nonconvex_quads(points: np.ndarray, topo: Topology) -> np.ndarray:
     >>> nonconvex_quads(dart.points, build_topology(dart)).tolist()
     [0]
     """
-    c = _corners(points, topo.quad)
+    cross = _cross(*_edges(points, topo.quad))
     area = signed_areas(np.asarray(points, dtype=np.float64), topo.tri[:0], topo.quad)
-    return np.flatnonzero((area > 0) & (c.cross <= 0).any(axis=1))
+    return np.flatnonzero((area > 0) & (cross <= 0).any(axis=0))
 
 
 def tri_aspect_ratio(points: np.ndarray, topo: Topology) -> np.ndarray:
@@ -349,7 +398,7 @@ def tri_aspect_ratio(points: np.ndarray, topo: Topology) -> np.ndarray:
     [1.0]
     """
     c = _corners(points, topo.tri)
-    return _tri_aspect(c, 0.5 * c.cross[:, 0])
+    return _tri_aspect(c, _tri_area(c))
 
 
 def tri_radius_ratio(points: np.ndarray, topo: Topology) -> np.ndarray:
@@ -369,7 +418,7 @@ def tri_radius_ratio(points: np.ndarray, topo: Topology) -> np.ndarray:
     [1.207106781187]
     """
     c = _corners(points, topo.tri)
-    return _tri_radius(c, 0.5 * c.cross[:, 0])
+    return _tri_radius(c, _tri_area(c))
 
 
 def quad_scaled_jacobian(points: np.ndarray, topo: Topology) -> np.ndarray:
@@ -423,6 +472,22 @@ def _opt(a: np.ndarray, fn) -> float | None:
     return float(fn(a)) if a.size else None
 
 
+def _extreme(fn, *angles: np.ndarray) -> float | None:
+    """``fn`` (np.min or np.max) over all the (k, n) corner angle arrays, None when there are none.
+
+    Equals ``fn`` over the angles listed cell by cell, without concatenating
+    them; only a zero is recomputed that way, as -0.0 and 0.0 tie and which one
+    a reduction returns depends on the order of the elements.
+    """
+    angles = tuple(a for a in angles if a.size)
+    if not angles:
+        return None
+    value = fn([fn(a) for a in angles])
+    if value == 0:
+        value = fn(np.concatenate([a.T.ravel() for a in angles]))
+    return float(value)
+
+
 def summarize(points: np.ndarray, topo: Topology) -> dict[str, Any]:
     """Quality summary of a mesh as a JSON-ready dict (plain ints, floats, lists, None).
 
@@ -457,13 +522,14 @@ def summarize(points: np.ndarray, topo: Topology) -> dict[str, Any]:
     nt, nq = topo.n_tri, topo.n_quad
     ct = _corners(pts, topo.tri)
     cq = _corners(pts, topo.quad)
-    area = signed_areas(pts, topo.tri, topo.quad)
-    at, aq = area[:nt], area[nt:]
-    ang = np.concatenate([ct.angle.ravel(), cq.angle.ravel()])
+    at, aq = _tri_area(ct), signed_areas(pts, topo.tri[:0], topo.quad)
+    area = np.concatenate([at, aq])
+    angles = [c.angle for c in (ct, cq) if c.angle.size]
     absa = np.abs(area)
     inv = np.flatnonzero(area <= 0)
     if pts.shape[0]:
-        diag2 = float(((pts.max(axis=0) - pts.min(axis=0)) ** 2).sum())
+        x, y = pts[:, 0], pts[:, 1]
+        diag2 = float(((np.array([x.max(), y.max()]) - np.array([x.min(), y.min()])) ** 2).sum())
     else:
         diag2 = 0.0
     min_area = _opt(absa, np.min)
@@ -473,22 +539,22 @@ def summarize(points: np.ndarray, topo: Topology) -> dict[str, Any]:
         "triangles": int(nt),
         "quads": int(nq),
         "fixed_nodes": int(np.count_nonzero(topo.fixed)),
-        "min_angle": _opt(ang, np.min),
-        "max_angle": _opt(ang, np.max),
-        "tri_min_angle": _opt(ct.angle, np.min),
-        "tri_max_angle": _opt(ct.angle, np.max),
-        "quad_min_angle": _opt(cq.angle, np.min),
-        "quad_max_angle": _opt(cq.angle, np.max),
-        "angles_below_20": int(np.count_nonzero(ang < 20.0)),
-        "angles_above_130": int(np.count_nonzero(ang > 130.0)),
-        "angles_above_150": int(np.count_nonzero(ang > 150.0)),
+        "min_angle": _extreme(np.min, ct.angle, cq.angle),
+        "max_angle": _extreme(np.max, ct.angle, cq.angle),
+        "tri_min_angle": _extreme(np.min, ct.angle),
+        "tri_max_angle": _extreme(np.max, ct.angle),
+        "quad_min_angle": _extreme(np.min, cq.angle),
+        "quad_max_angle": _extreme(np.max, cq.angle),
+        "angles_below_20": sum(int(np.count_nonzero(a < 20.0)) for a in angles),
+        "angles_above_130": sum(int(np.count_nonzero(a > 130.0)) for a in angles),
+        "angles_above_150": sum(int(np.count_nonzero(a > 150.0)) for a in angles),
         "min_area": min_area,
         "max_area": max_area,
         "area_ratio": (max_area / min_area) if min_area else None,
         "inverted": int(inv.size),
         "inverted_cells": inv[:10].tolist(),
         "degenerate": int(np.count_nonzero(absa <= DEGENERATE_REL * diag2)),
-        "nonconvex_quads": int(np.count_nonzero((aq > 0) & (cq.cross <= 0).any(axis=1))),
+        "nonconvex_quads": int(np.count_nonzero((aq > 0) & (cq.cross <= 0).any(axis=0))),
         "tri_aspect_ratio": _stats(_tri_aspect(ct, at)),
         "tri_radius_ratio": _stats(_tri_radius(ct, at)),
         "quad_scaled_jacobian": _stats(_quad_jac(cq)),
