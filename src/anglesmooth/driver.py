@@ -62,6 +62,15 @@ class SmoothResult:
         return self.mesh.points
 
 
+def _max_move(old: np.ndarray, new: np.ndarray) -> float:
+    """Largest node displacement; sqrt is monotonic, so one sqrt of the largest square (same value)."""
+    if not old.shape[0]:
+        return 0.0
+    dx = new[:, 0] - old[:, 0]
+    dy = new[:, 1] - old[:, 1]
+    return float(np.sqrt((dx * dx + dy * dy).max()))
+
+
 def smooth(
     mesh: Mesh2D,
     method: str = "angle",
@@ -121,7 +130,7 @@ def smooth(
         if recheck:
             new, n_rev = _revert_new_invalid(pts, new, topo, bad_before)
             reverted += n_rev
-        disp = float(np.sqrt(((new - pts) ** 2).sum(axis=1)).max()) / mean_edge if pts.shape[0] else 0.0
+        disp = _max_move(pts, new) / mean_edge
         pts = new
         rejected += rej
         done = k + 1
