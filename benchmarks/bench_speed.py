@@ -13,11 +13,16 @@ every case in its own subprocess so that the peak RSS of each case is its own:
   compared with);
 * with ``--kernels numpy,numba`` every method case runs with each kernel
   (``ANGLESMOOTH_KERNEL``); the default ``auto`` is what users get (numba from
-  100k free nodes on, when installed).  ``jit s`` is the time to load (or, on
+  40k free nodes on, when installed).  ``jit s`` is the time to load (or, on
   the very first run, compile) the compiled kernels, paid once per process;
 * the whole CLI (``anglesmooth in.msh out.vtu --passes 10``) beside meshio alone
   reading the same ``.msh`` and writing a zlib-compressed ``.vtu``, for a
-  binary and an ASCII ``.msh`` (gmsh writes ASCII unless told otherwise).
+  binary and an ASCII ``.msh`` (gmsh writes ASCII unless told otherwise), and
+  ``anglesmooth check in.msh``: medians of ``--e2e-repeat`` runs, each in a
+  fresh process (start-up included), with the peak RSS of the CLI process;
+* where the end-to-end time goes: the CLI's stages (read, topology, quality
+  summary, kernel load, passes, summary, write) timed in one process through
+  the library, for the binary ``.msh`` (a second table).
 
 Usage::
 
@@ -179,6 +184,44 @@ def worker_meshio(msh: str, out: str) -> dict:
     return {"read_s": t1 - t0, "write_s": t2 - t1, "total_s": t2 - t0, "peak_rss_mb": _peak_rss_mb()}
 
 
+STAGES = ("import", "read", "topology", "summary", "passes", "summary2", "write")
+
+
+def worker_stages(msh: str, out: str, passes: int = 10) -> dict:
+    """The CLI's smoothing path through the library, each stage timed (one process, defaults: ``angle``).
+
+    As in the CLI, the first pass also loads the compiled kernels (numba) when they run; its time is
+    reported apart (``pass1_s``) beside the median of the other passes (``pass_s``).
+    """
+    t = [time.perf_counter()]
+    from anglesmooth import io as mesh_io
+    from anglesmooth.driver import smooth
+    from anglesmooth.quality import summarize
+    from anglesmooth.smoothers import _fast
+    from anglesmooth.topology import build_topology
+
+    t.append(time.perf_counter())
+    mesh = mesh_io.read(msh)
+    t.append(time.perf_counter())
+    topo = build_topology(mesh)
+    t.append(time.perf_counter())
+    summarize(mesh.points, topo)
+    t.append(time.perf_counter())
+    ends = [t[-1]]
+    result = smooth(mesh, "angle", passes, topology=topo, callback=lambda k, p, d: ends.append(time.perf_counter()))
+    t.append(time.perf_counter())
+    summarize(result.points, topo)
+    t.append(time.perf_counter())
+    mesh_io.write(mesh, out, points=result.points)
+    t.append(time.perf_counter())
+    per_pass = [b - a for a, b in zip(ends, ends[1:])]
+    out_d = {f"{k}_s": b - a for k, a, b in zip(STAGES, t, t[1:])}
+    out_d.update(total_s=t[-1] - t[0], pass1_s=per_pass[0] if per_pass else None,
+                 pass_s=statistics.median(per_pass[1:]) if len(per_pass) > 1 else None,
+                 kernel="numba" if _fast.active(topo) else "numpy", peak_rss_mb=_peak_rss_mb())
+    return out_d
+
+
 def _run_worker(args: list[str], kernel: str | None = None) -> dict:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(SRC), env.get("PYTHONPATH", "")])
@@ -198,15 +241,24 @@ def _cli_available() -> bool:
     return True
 
 
-def run_cli(msh: str, out: str, passes: int = 10) -> dict:
+def _run_timed(cmd: list[str], env: dict) -> tuple[float, int, float]:
+    """Wall time, exit code and peak RSS (MB) of one child process (``wait4``: that child's own rusage)."""
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    return wall, proc.returncode, usage.ru_maxrss / 1024.0
+
+
+def run_cli(args: list[str], repeat: int = 1) -> dict:
+    """``python -m anglesmooth ARGS`` ``repeat`` times in fresh processes: median wall time, largest peak RSS."""
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(SRC), env.get("PYTHONPATH", "")])
-    cmd = [sys.executable, "-m", "anglesmooth", msh, out, "--passes", str(passes)]
-    t0 = time.perf_counter()
-    res = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    wall = time.perf_counter() - t0
-    # children's peak RSS: resource reports the largest child so far, so only a lower bound
-    return {"total_s": wall, "returncode": res.returncode, "stderr_tail": res.stderr.strip().splitlines()[-1:]}
+    runs = [_run_timed([sys.executable, "-m", "anglesmooth", *args], env) for _ in range(max(1, repeat))]
+    codes = {rc for _, rc, _ in runs}
+    return {"total_s": statistics.median(w for w, _, _ in runs), "runs_s": [w for w, _, _ in runs],
+            "returncode": max(codes, key=abs), "peak_rss_mb": max(r for _, _, r in runs)}
 
 
 # --------------------------------------------------------------------------- driver
@@ -219,7 +271,7 @@ def cases() -> list[tuple[str, bool]]:
 
 
 def run(sizes: dict, repeat: int, cli: bool, tmp: Path, slow_repeat: int | None = None,
-        kernels: tuple[str, ...] = ("auto",)) -> list[dict]:
+        kernels: tuple[str, ...] = ("auto",), e2e_repeat: int = 3) -> list[dict]:
     rows = []
     for name, (kind, n_cells) in sizes.items():
         info = write_inputs(name, kind, n_cells, tmp)
@@ -246,14 +298,24 @@ def run(sizes: dict, repeat: int, cli: bool, tmp: Path, slow_repeat: int | None 
                     row["ratio_to_bincount"] = r["pass_s"] / floor
                 rows.append(row)
         for enc, msh in info["msh"].items() if cli else ():
-            m = _run_worker(["meshio", msh, str(tmp / f"{name}_meshio.vtu")])
-            c = run_cli(msh, str(tmp / f"{name}_cli.vtu"))
             common = {"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"], "msh": enc}
+            meshio_runs = [_run_worker(["meshio", msh, str(tmp / f"{name}_meshio.vtu")]) for _ in range(e2e_repeat)]
+            ok = [r for r in meshio_runs if "error" not in r]
+            m = {k: statistics.median(r[k] for r in ok) for k in ("total_s", "read_s", "write_s")} if ok else {}
+            c = run_cli([msh, str(tmp / f"{name}_cli.vtu"), "--passes", "10"], e2e_repeat)
+            chk = run_cli(["check", msh], e2e_repeat)
             rows.append({**common, "method": f"meshio ({enc} msh)", "guard": None, "e2e_s": m.get("total_s"),
-                         "read_s": m.get("read_s"), "write_s": m.get("write_s"), "peak_rss_mb": m.get("peak_rss_mb")})
+                         "read_s": m.get("read_s"), "write_s": m.get("write_s"),
+                         "peak_rss_mb": max((r["peak_rss_mb"] for r in ok), default=None)})
             ratio = c["total_s"] / m["total_s"] if m.get("total_s") else None
             rows.append({**common, "method": f"CLI ({enc} msh)", "guard": True, "e2e_s": c["total_s"],
-                         "ratio_to_meshio": ratio, "returncode": c["returncode"]})
+                         "runs_s": c["runs_s"], "ratio_to_meshio": ratio, "returncode": c["returncode"],
+                         "peak_rss_mb": c["peak_rss_mb"]})
+            rows.append({**common, "method": f"CLI check ({enc} msh)", "guard": None, "e2e_s": chk["total_s"],
+                         "runs_s": chk["runs_s"], "returncode": chk["returncode"], "peak_rss_mb": chk["peak_rss_mb"]})
+            if enc == "binary":
+                st = _run_worker(["stages", msh, str(tmp / f"{name}_stages.vtu")])
+                rows.append({**common, "method": "stages", "guard": True, **st})
         for p in tmp.glob(f"{name}*"):
             p.unlink()
     return rows
@@ -266,21 +328,41 @@ def _fmt(v, spec):
 
 
 def table(rows: list[dict]) -> str:
-    head = (f"{'mesh':>9} {'cells':>9} {'method':<18} {'guard':<5} {'kernel':<6} {'setup s':>8} {'jit s':>6} "
+    head = (f"{'mesh':>9} {'cells':>9} {'method':<22} {'guard':<5} {'kernel':<6} {'setup s':>8} {'jit s':>6} "
             f"{'s/pass':>8} {'x lap':>6} {'x bincnt':>8} {'e2e s':>7} {'x meshio':>8} {'RSS MB':>7}")
     lines = [head, "-" * len(head)]
     for r in rows:
         guard = "" if r.get("guard") is None else ("on" if r["guard"] else "off")
         kernel = r.get("kernel", "")
         if "error" in r:
-            lines.append(f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<18} {guard:<5} {kernel:<6} error: {r['error']}")
+            lines.append(f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<22} {guard:<5} {kernel:<6} error: {r['error']}")
             continue
         lines.append(
-            f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<18} {guard:<5} {kernel:<6} {_fmt(r.get('setup_s'), '8.2f')} "
+            f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<22} {guard:<5} {kernel:<6} {_fmt(r.get('setup_s'), '8.2f')} "
             f"{_fmt(r.get('jit_s'), '6.2f')} {_fmt(r.get('pass_s'), '8.3f')} {_fmt(r.get('ratio_to_laplacian'), '6.2f')} "
             f"{_fmt(r.get('ratio_to_bincount'), '8.1f')} {_fmt(r.get('e2e_s'), '7.2f')} "
             f"{_fmt(r.get('ratio_to_meshio'), '8.2f')} {_fmt(r.get('peak_rss_mb'), '7.0f')}"
         )
+    return "\n".join(lines)
+
+
+def stage_table(rows: list[dict]) -> str:
+    """Where the end-to-end time goes: one line per mesh, the CLI's stages in seconds."""
+    cols = ("import", "read", "topology", "summary", "passes", "pass1", "pass", "summary2", "write", "total")
+    head = f"{'mesh':>9} {'kernel':<6} " + " ".join(f"{c:>8}" for c in cols) + f" {'meshio':>8} {'RSS MB':>7}"
+    lines = ["stages of 'anglesmooth in.msh out.vtu' (binary .msh, 10 default passes) in one process, seconds;",
+             "pass1 = first pass (loads the compiled kernels), pass = median of the others, meshio = its read+write",
+             head, "-" * len(head)]
+    meshio = {r["mesh"]: r.get("e2e_s") for r in rows if r["method"] == "meshio (binary msh)"}
+    for r in rows:
+        if r["method"] != "stages":
+            continue
+        if "error" in r:
+            lines.append(f"{r['mesh']:>9} error: {r['error']}")
+            continue
+        vals = " ".join(_fmt(r.get(f"{c}_s"), "8.3f") for c in cols)
+        lines.append(f"{r['mesh']:>9} {r.get('kernel', ''):<6} {vals} {_fmt(meshio.get(r['mesh']), '8.3f')} "
+                     f"{_fmt(r.get('peak_rss_mb'), '7.0f')}")
     return "\n".join(lines)
 
 
@@ -299,6 +381,8 @@ def main(argv: list[str] | None = None) -> int:
         if kind == "method":
             npz, method, guard, rep = rest
             out = worker_method(npz, method, bool(int(guard)), int(rep))
+        elif kind == "stages":
+            out = worker_stages(*rest)
         else:
             out = worker_meshio(*rest)
         print(json.dumps(out))
@@ -308,13 +392,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=5, help="passes timed per case (median reported)")
     ap.add_argument("--slow-repeat", type=int, default=None, help="passes for 'optimization' (default: --repeat)")
     ap.add_argument("--no-cli", action="store_true", help="skip the end-to-end CLI and meshio columns")
+    ap.add_argument("--e2e-repeat", type=int, default=3,
+                    help="fresh-process runs of each end-to-end command (median reported)")
     ap.add_argument("--tiny", action="store_true", help="tiny meshes, 2 passes (for the test suite)")
     ap.add_argument("--kernels", default="auto",
                     help="comma-separated ANGLESMOOTH_KERNEL values to run every method with (auto, numpy, numba)")
     ap.add_argument("--json", metavar="PATH", help="also write the rows as JSON")
     args = ap.parse_args(argv)
     if args.tiny:
-        sizes, repeat = TINY, 2
+        sizes, repeat, args.e2e_repeat = TINY, 2, 1
     else:
         unknown = [s for s in args.sizes.split(",") if s not in SIZES]
         if unknown:
@@ -323,14 +409,19 @@ def main(argv: list[str] | None = None) -> int:
     cli = not args.no_cli and _cli_available()
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="anglesmooth-bench-") as tmp:
-        rows = run(sizes, repeat, cli, Path(tmp), args.slow_repeat, tuple(args.kernels.split(",")))
-    print(table(rows))
+        rows = run(sizes, repeat, cli, Path(tmp), args.slow_repeat, tuple(args.kernels.split(",")),
+                   args.e2e_repeat)
+    print(table([r for r in rows if r["method"] != "stages"]))
+    if any(r["method"] == "stages" for r in rows):
+        print()
+        print(stage_table(rows))
     meta = {
         "python": sys.version.split()[0],
         "numpy": np.__version__,
         "numba": _numba_version(),
         "cpus": os.cpu_count(),
         "repeat": repeat,
+        "e2e_repeat": args.e2e_repeat,
         "wall_s": time.perf_counter() - t0,
         "command": " ".join([Path(sys.executable).name, *sys.argv]),
     }

@@ -35,17 +35,25 @@ def test_bench_speed_tiny(tmp_path):
         for kernel in ("numpy", "numba"):  # every method ran with both kernels
             assert ("tiny", name, True, kernel) in methods and ("tinyquad", name, True, kernel) in methods
     assert ("tiny", "angle", False, "numba") in methods
-    timed = [r for r in rows if "kernel" in r]
+    timed = [r for r in rows if "kernel" in r and r["method"] != "stages"]
     for r in timed:
         assert "error" not in r, r
         assert r["pass_s"] >= 0 and r["setup_s"] >= 0 and r["peak_rss_mb"] > 0
         assert (r["jit_s"] is None) == (r["kernel"] == "numpy")
     assert any("ratio_to_laplacian" in r for r in rows)
     # the end-to-end rows: the CLI beside meshio alone, for a binary and an ASCII .msh
-    e2e = {(r["mesh"], r["method"]): r for r in rows if "kernel" not in r}
+    e2e = {(r["mesh"], r["method"]): r for r in rows if r not in timed}
     for mesh in ("tiny", "tinyquad"):
         for enc in ("binary", "ascii"):
             assert e2e[(mesh, f"CLI ({enc} msh)")]["returncode"] == 0
             assert e2e[(mesh, f"CLI ({enc} msh)")]["ratio_to_meshio"] > 0
             assert e2e[(mesh, f"meshio ({enc} msh)")]["e2e_s"] > 0
+            assert e2e[(mesh, f"CLI check ({enc} msh)")]["returncode"] == 0
+            assert e2e[(mesh, f"CLI ({enc} msh)")]["peak_rss_mb"] > 0
+        # where the end-to-end time goes: every stage of the CLI's path timed, adding up to the total
+        st = e2e[(mesh, "stages")]
+        stages = [st[f"{k}_s"] for k in ("import", "read", "topology", "summary", "passes", "summary2", "write")]
+        assert all(v >= 0 for v in stages) and abs(sum(stages) - st["total_s"]) < 1e-6
+        assert 0 < st["pass1_s"] <= st["passes_s"]
+    assert "stages of 'anglesmooth in.msh out.vtu'" in res.stdout
     assert list(tmp_path.iterdir()) == [out]  # meshes went to a temporary directory
