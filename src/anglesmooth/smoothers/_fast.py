@@ -57,7 +57,7 @@ __all__ = [
 
 #: Smallest number of free nodes for which ``auto`` uses the compiled kernels.  Loading them costs
 #: about 0.5 s per process (numba's import and the cached kernels), a default ``angle`` pass saves
-#: about 1.8 us per free node: for 10 passes the CLI broke even at about 40k free nodes (measured,
+#: about 1.6 us per free node: for 10 passes the CLI broke even at about 40k free nodes (measured,
 #: 2 cores: 60k triangles numpy 1.14 s vs numba 1.29 s; 100k triangles 1.46 s vs 1.32 s).
 AUTO_MIN_FREE = 40_000
 
