@@ -497,7 +497,8 @@ def _t5_verdict(s, n):
 def _cost(res):
     out = ["## Section 5.2 — cost per pass\n",
            "Median wall time of one pass, relative to the unguarded Laplacian pass, measured in one run (all methods "
-           "vectorized numpy, colour-ordered; guarded Laplacian shown too). The paper gives no measurement, only the "
+           "vectorized numpy, as `reproduce.py` sets `ANGLESMOOTH_KERNEL=numpy` unless it is set; colour-ordered; "
+           "guarded Laplacian shown too). The paper gives no measurement, only the "
            "claims in the last column.\n"]
     claims = res["paper"]["cost_claims"]
     L = dict(res["meta"]["labels"])
