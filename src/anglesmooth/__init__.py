@@ -38,7 +38,7 @@ from .errors import (
 from .mesh import Mesh2D
 from .quality import summarize
 from .smoothers import SMOOTHERS
-from .topology import Topology, build_topology
+from .topology import CellTopology, Topology, build_cell_topology, build_topology
 
 if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
@@ -46,6 +46,7 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = [
     "SMOOTHERS",
     "AngleSmoothError",
+    "CellTopology",
     "InvalidMeshError",
     "Mesh2D",
     "MeshReadError",
@@ -55,6 +56,7 @@ __all__ = [
     "UnknownMethodError",
     "UnsupportedMeshError",
     "__version__",
+    "build_cell_topology",
     "build_topology",
     "read",
     "smooth",

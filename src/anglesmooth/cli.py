@@ -34,7 +34,7 @@ from .gates import Gate, evaluate, resolve_thresholds
 from .quality import cell_areas, cell_min_angles, summarize
 from .smoothers import SMOOTHERS
 from .smoothers._fast import kernel_mode
-from .topology import build_topology
+from .topology import build_cell_topology, build_topology
 
 __all__ = ["cli", "main"]
 
@@ -516,7 +516,7 @@ def _check_one(path: str, input_format, thresholds: dict, debug: bool) -> tuple[
     entry = {"input": name, "report": None, "gates": [], "passed": None, "error": None}
     try:
         mesh = read_mesh(path, input_format)
-        summary = summarize(mesh.points, build_topology(mesh))
+        summary = summarize(mesh.points, build_cell_topology(mesh))  # no smoothing tables needed
     except (AngleSmoothError, MemoryError) as exc:
         if debug:
             traceback.print_exc(file=sys.stderr)

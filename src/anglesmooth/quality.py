@@ -2,10 +2,10 @@
 
 Everything here is vectorized over cells and corners; nothing loops per cell.
 All functions take the node coordinates ``points`` (N, 2) and a
-:class:`~anglesmooth.topology.Topology`, whose ``tri`` (nt, 3) and ``quad``
-(nq, 4) are already oriented counter-clockwise (the mesh's orientation), so a
-positive signed area means "valid" and a negative one "inverted" regardless of
-how the file was written.  Per-cell arrays list the triangles first, then the
+:class:`~anglesmooth.topology.CellTopology` (a full ``Topology`` is one),
+whose ``tri`` (nt, 3) and ``quad`` (nq, 4) are already oriented
+counter-clockwise (the mesh's orientation), so a positive signed area means
+"valid" and a negative one "inverted" regardless of how the file was written.  Per-cell arrays list the triangles first, then the
 quads (the order of :func:`anglesmooth.topology.signed_areas`).
 
 Definitions
@@ -71,7 +71,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .topology import Topology, signed_areas
+from .topology import CellTopology, signed_areas
 
 __all__ = [
     "METRICS",
@@ -236,7 +236,7 @@ def _tri_area(c: _Corners) -> np.ndarray:
     return 0.5 * c.cross[0]
 
 
-def corner_angles(points: np.ndarray, topo: Topology) -> tuple[np.ndarray, np.ndarray]:
+def corner_angles(points: np.ndarray, topo: CellTopology) -> tuple[np.ndarray, np.ndarray]:
     """Corner angles of every triangle and quad, in degrees.
 
     The angle at node v with previous node p and next node n (counter-clockwise
@@ -248,7 +248,7 @@ def corner_angles(points: np.ndarray, topo: Topology) -> tuple[np.ndarray, np.nd
     Parameters
     ----------
     points : (N, 2) float array
-    topo : Topology
+    topo : CellTopology (or Topology)
 
     Returns
     -------
@@ -270,7 +270,7 @@ def corner_angles(points: np.ndarray, topo: Topology) -> tuple[np.ndarray, np.nd
     return tuple(np.ascontiguousarray(_corners(points, cells).angle.T) for cells in (topo.tri, topo.quad))
 
 
-def cell_min_angles(points: np.ndarray, topo: Topology) -> np.ndarray:
+def cell_min_angles(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     """Smallest corner angle of each cell (triangles, then quads), degrees.
 
     Angles as in :func:`corner_angles`.
@@ -288,7 +288,7 @@ def cell_min_angles(points: np.ndarray, topo: Topology) -> np.ndarray:
     return np.concatenate([t.min(axis=0, initial=np.inf), q.min(axis=0, initial=np.inf)])
 
 
-def cell_max_angles(points: np.ndarray, topo: Topology) -> np.ndarray:
+def cell_max_angles(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     """Largest corner angle of each cell (triangles, then quads), degrees.
 
     Angles as in :func:`corner_angles`; a non-convex quad's reflex corner is > 180.
@@ -306,7 +306,7 @@ def cell_max_angles(points: np.ndarray, topo: Topology) -> np.ndarray:
     return np.concatenate([t.max(axis=0, initial=-np.inf), q.max(axis=0, initial=-np.inf)])
 
 
-def cell_areas(points: np.ndarray, topo: Topology) -> np.ndarray:
+def cell_areas(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     """Signed area of each cell (triangles, then quads), positive when valid.
 
     Shoelace formula (:func:`anglesmooth.topology.signed_areas`) on the
@@ -324,7 +324,7 @@ def cell_areas(points: np.ndarray, topo: Topology) -> np.ndarray:
     return signed_areas(np.asarray(points, dtype=np.float64), topo.tri, topo.quad)
 
 
-def inverted_cells(points: np.ndarray, topo: Topology) -> np.ndarray:
+def inverted_cells(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     """Indices of the cells (triangles, then quads) with signed area <= 0.
 
     Examples
@@ -342,7 +342,7 @@ def inverted_cells(points: np.ndarray, topo: Topology) -> np.ndarray:
     return np.flatnonzero(cell_areas(points, topo) <= 0)
 
 
-def invalid_cells(points: np.ndarray, topo: Topology) -> np.ndarray:
+def invalid_cells(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     """Mask (triangles, then quads) of cells a guarded smoother must not create.
 
     A cell is invalid when some corner has ``cross(next - v, prev - v) <= 0``
@@ -359,7 +359,7 @@ def invalid_cells(points: np.ndarray, topo: Topology) -> np.ndarray:
     return np.concatenate([~(_cross(*_edges(points, cells)) > 0).all(axis=0) for cells in (topo.tri, topo.quad)])
 
 
-def nonconvex_quads(points: np.ndarray, topo: Topology) -> np.ndarray:
+def nonconvex_quads(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     """Indices (into ``topo.quad``) of non-convex quads.
 
     A quad is non-convex when its signed area is positive and at least one
@@ -380,7 +380,7 @@ def nonconvex_quads(points: np.ndarray, topo: Topology) -> np.ndarray:
     return np.flatnonzero((area > 0) & (cross <= 0).any(axis=0))
 
 
-def tri_aspect_ratio(points: np.ndarray, topo: Topology) -> np.ndarray:
+def tri_aspect_ratio(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     """Verdict triangle aspect ratio of each triangle.
 
     ``l_max (l0 + l1 + l2) / (4 sqrt(3) |A|)``: 1 for an equilateral triangle,
@@ -401,7 +401,7 @@ def tri_aspect_ratio(points: np.ndarray, topo: Topology) -> np.ndarray:
     return _tri_aspect(c, _tri_area(c))
 
 
-def tri_radius_ratio(points: np.ndarray, topo: Topology) -> np.ndarray:
+def tri_radius_ratio(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     """Verdict triangle radius ratio of each triangle.
 
     ``R / (2 r) = l0 l1 l2 (l0 + l1 + l2) / (16 A^2)`` with R the circumradius
@@ -421,7 +421,7 @@ def tri_radius_ratio(points: np.ndarray, topo: Topology) -> np.ndarray:
     return _tri_radius(c, _tri_area(c))
 
 
-def quad_scaled_jacobian(points: np.ndarray, topo: Topology) -> np.ndarray:
+def quad_scaled_jacobian(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     """Verdict quad scaled Jacobian of each quad.
 
     Minimum over the four corners of ``cross(e_prev, e_next) / (|e_prev| |e_next|)``,
@@ -442,7 +442,7 @@ def quad_scaled_jacobian(points: np.ndarray, topo: Topology) -> np.ndarray:
     return _quad_jac(_corners(points, topo.quad))
 
 
-def quad_aspect_ratio(points: np.ndarray, topo: Topology) -> np.ndarray:
+def quad_aspect_ratio(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     """Verdict quad aspect ratio of each quad.
 
     ``l_max (l0 + l1 + l2 + l3) / (4 |A|)`` with A the (shoelace) area: 1 for a
@@ -488,7 +488,7 @@ def _extreme(fn, *angles: np.ndarray) -> float | None:
     return float(value)
 
 
-def summarize(points: np.ndarray, topo: Topology) -> dict[str, Any]:
+def summarize(points: np.ndarray, topo: CellTopology) -> dict[str, Any]:
     """Quality summary of a mesh as a JSON-ready dict (plain ints, floats, lists, None).
 
     Keys and definitions are listed in :data:`METRICS`.  ``area_ratio`` is None
@@ -502,7 +502,7 @@ def summarize(points: np.ndarray, topo: Topology) -> dict[str, Any]:
     points : (N, 2) float array
         Node coordinates (may differ from the mesh the topology was built from,
         e.g. after smoothing).
-    topo : Topology
+    topo : CellTopology (or Topology)
 
     Returns
     -------

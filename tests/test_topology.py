@@ -1,0 +1,74 @@
+"""build_cell_topology gives exactly the cell-level fields of build_topology, and summaries from either agree."""
+
+from __future__ import annotations
+
+from dataclasses import fields
+
+import numpy as np
+import pytest
+from meshes import distorted, mixed_small, paper_mixed, regular_quads, regular_triangles, two_regions, with_hole
+
+from anglesmooth.mesh import Mesh2D
+from anglesmooth.quality import summarize
+from anglesmooth.topology import CellTopology, Topology, build_cell_topology, build_topology
+
+
+def clockwise(mesh: Mesh2D) -> Mesh2D:
+    """Every cell written the other way round (the topology re-orients them all)."""
+    return Mesh2D.from_arrays(mesh.points, triangles=mesh.triangles[:, ::-1], quads=mesh.quads[:, ::-1])
+
+
+def half_flipped(mesh: Mesh2D) -> Mesh2D:
+    """Every other triangle written clockwise: inconsistent winding, re-oriented patch by patch."""
+    tri = mesh.triangles.copy()
+    tri[::2] = tri[::2, ::-1]
+    return Mesh2D.from_arrays(mesh.points, triangles=tri, quads=mesh.quads)
+
+
+def bow_tie() -> Mesh2D:
+    """Two fans of four triangles sharing one node (non-manifold there) plus an unused node."""
+    pts = [[0, 0], [1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0], [-1, -1], [0, -1], [1, -1], [5, 5]]
+    pts = np.array(pts, float)
+    tri = [[0, 1, 2], [0, 2, 3], [0, 5, 6], [0, 6, 7]]
+    return Mesh2D.from_arrays(np.r_[pts, [[2, 2]]], triangles=tri)
+
+
+MESHES = {
+    "triangles": lambda: regular_triangles(6, 6),
+    "quads": lambda: regular_quads(5, 5),
+    "hole": lambda: with_hole("quad"),
+    "regions": two_regions,
+    "mixed": mixed_small,
+    "paper-mixed": lambda: paper_mixed(1),
+    "distorted": distorted,
+    "clockwise": lambda: clockwise(mixed_small()),
+    "half-flipped": lambda: half_flipped(regular_triangles(6, 6)),
+    "bow-tie": bow_tie,
+}
+
+
+def _equal(a, b) -> bool:
+    return a == b if isinstance(a, (int, dict)) else (a.dtype == b.dtype and np.array_equal(a, b))
+
+
+@pytest.mark.parametrize("name", MESHES)
+@pytest.mark.parametrize("extra", [False, True])
+def test_cell_topology_is_the_cell_part_of_the_full_topology(name, extra):
+    mesh = MESHES[name]()
+    fix = np.arange(0, mesh.n_points, 7) if extra else None
+    cells, full = build_cell_topology(mesh, fix), build_topology(mesh, fix)
+    assert type(cells) is CellTopology and isinstance(full, CellTopology) and isinstance(full, Topology)
+    for f in fields(CellTopology):
+        assert _equal(getattr(cells, f.name), getattr(full, f.name)), f.name
+    assert (cells.n_tri, cells.n_quad, cells.n_edges) == (full.n_tri, full.n_quad, full.n_edges)
+    rng = np.random.default_rng(0)
+    p = mesh.points + rng.normal(scale=0.05, size=mesh.points.shape)  # some cells poor, some inverted
+    assert summarize(p, cells) == summarize(p, full)
+
+
+def test_bow_tie_fixes_its_shared_node_and_unused_nodes():
+    mesh = bow_tie()
+    cells = build_cell_topology(mesh)
+    unused = np.setdiff1d(np.arange(mesh.n_points), mesh.triangles)
+    assert cells.fixed.all()  # the shared node and every other used node lie on the boundary
+    assert cells.fixed_reasons["unused"] == unused.size == 4
