@@ -572,3 +572,20 @@ def test_output_under_a_regular_file_is_not_a_directory(meshes, tmp_path):
     result = run(meshes["msh"], afile / "out.vtu")
     assert result.exit_code == 3
     assert "is not a directory" in one_error_line(result)
+
+
+def test_file_names_with_brackets_are_printed_as_they_are(meshes, tmp_path):
+    """rich markup must not eat parts of file names such as "[bold]" (tables, gate lines, warnings)."""
+    d = tmp_path / "run[fast]"
+    d.mkdir()
+    src = d / "mesh[bold].vtu"
+    shutil.copy(meshes["tangled"], src)
+    out = d / "out[1].vtu"
+    r = run(src, out, "--passes", "1", "--min-angle", "0", "--max-inverted", "1000", "--no-progress")
+    assert r.exit_code == 0, r.stderr
+    assert f"{src}->{out}" in "".join(r.stderr.split())  # the table title (wrapped on narrow terminals)
+    assert f"warning: {src}: the input has" in r.stderr  # the tangled-input warning
+    assert f"{out}: all 2 gates passed" in r.stderr
+    r = run("check", src, out, "--min-angle", "0", "--max-inverted", "1000")
+    assert r.exit_code == 0, r.stderr
+    assert "mesh[bold].vtu" in r.stderr and "out[1].vtu" in r.stderr  # the one-row-per-file table

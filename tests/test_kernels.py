@@ -120,6 +120,36 @@ def test_auto_uses_compiled_kernels_only_on_large_meshes(monkeypatch):
     assert not _fast.active(build_topology(mesh))  # without numba, auto falls back to numpy
 
 
+def test_cli_suggests_the_fast_extra_only_where_it_would_be_used(monkeypatch, tmp_path):
+    src = tmp_path / "in.vtu"
+    m = gen.structured_triangles(6, 6)
+    meshio.write(src, meshio.Mesh(np.c_[m.points, np.zeros(len(m.points))], [("triangle", m.triangles)]))
+    monkeypatch.delenv("ANGLESMOOTH_KERNEL", raising=False)
+    monkeypatch.setattr(_fast, "AUTO_MIN_FREE", 10)  # this mesh counts as large
+
+    def stderr(*args):
+        try:
+            runner = CliRunner(mix_stderr=False)
+        except TypeError:  # click >= 8.2 keeps stderr apart
+            runner = CliRunner()
+        r = runner.invoke(cli, [str(a) for a in args])
+        assert r.exit_code == 0, r.output
+        return r.stderr
+
+    note = "pip install 'anglesmooth[fast]'"
+    assert note not in stderr(src, tmp_path / "a.vtu")  # numba is installed (test extra)
+    monkeypatch.setattr(_fast, "_numba_available", lambda: False)
+    assert note in stderr(src, tmp_path / "b.vtu")
+    assert note in stderr("compare", src, "--passes", "1")
+    assert note not in stderr(src, tmp_path / "c.vtu", "--quiet")
+    assert note not in stderr(src, tmp_path / "d.vtu", "--passes", "0")  # nothing to speed up
+    monkeypatch.setenv("ANGLESMOOTH_KERNEL", "numpy")  # numpy asked for: no advice
+    assert note not in stderr(src, tmp_path / "e.vtu")
+    monkeypatch.delenv("ANGLESMOOTH_KERNEL")
+    monkeypatch.setattr(_fast, "AUTO_MIN_FREE", 10**9)  # a small mesh: numpy is the right kernel anyway
+    assert note not in stderr(src, tmp_path / "f.vtu")
+
+
 def test_bad_kernel_setting_is_a_usage_error(monkeypatch, tmp_path):
     monkeypatch.setenv("ANGLESMOOTH_KERNEL", "cuda")
     with pytest.raises(ConfigurationError, match="ANGLESMOOTH_KERNEL"):

@@ -25,6 +25,7 @@ from pathlib import Path
 import click
 import numpy as np
 from rich.console import Console
+from rich.markup import escape
 
 from . import report
 from .__about__ import __version__
@@ -33,7 +34,7 @@ from .errors import AngleSmoothError, GateFileError, MeshWriteError
 from .gates import Gate, evaluate, resolve_thresholds
 from .quality import cell_areas, cell_min_angles, summarize
 from .smoothers import SMOOTHERS
-from .smoothers._fast import kernel_mode
+from .smoothers._fast import kernel_mode, would_help
 from .topology import build_cell_topology, build_topology
 
 __all__ = ["cli", "main"]
@@ -274,7 +275,7 @@ def _report_gates(console: Console, name: str, gates: list[Gate]) -> bool:
     for g in failed:
         click.echo(g.message(name), err=True)
     if gates and not failed:
-        console.print(f"{name}: all {len(gates)} gates passed")
+        console.print(f"{name}: all {len(gates)} gates passed", markup=False, highlight=False)
     return not failed
 
 
@@ -303,10 +304,17 @@ def _stage_json(json_path: str, document: dict) -> Path:
     return Path(tmp)
 
 
+def _note_fast(console: Console, topo) -> None:
+    if would_help(topo):
+        console.print(f"note: {topo.n_free} free nodes and numba is not installed: "
+                      "pip install 'anglesmooth[fast]' makes every pass 3-4x faster on meshes this size",
+                      markup=False, highlight=False)
+
+
 def _warn_invalid(console: Console, name: str, summary: dict) -> None:
     if summary["inverted"]:
         first = ", ".join(map(str, summary["inverted_cells"]))
-        console.print(f"[yellow]warning:[/] {name}: the input has {summary['inverted']} inverted cell(s) "
+        console.print(f"[yellow]warning:[/] {escape(name)}: the input has {summary['inverted']} inverted cell(s) "
                       f"(first: {first}); guarded smoothing never adds inverted cells and takes moves that remove them")
 
 
@@ -436,6 +444,8 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
     topo = build_topology(mesh, _extra_fixed(mesh, fix_group, user_nodes))
     before = summarize(mesh.points, topo)
     _warn_invalid(console, name, before)
+    if passes:
+        _note_fast(console, topo)
     with _progress(console, passes, mesh.n_cells, progress) as callback:
         result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
                             callback=callback)
@@ -501,7 +511,7 @@ def check_cmd(inputs, input_format, json_path, quiet, debug, **gate_opts) -> Non
         click.echo(line, err=True)
     for e in entries:
         if e["report"] is not None and e["passed"] and thresholds:
-            console.print(f"{e['input']}: all {len(e['gates'])} gates passed")
+            console.print(f"{e['input']}: all {len(e['gates'])} gates passed", markup=False, highlight=False)
     errors = any(e["error"] for e in entries)
     passed = not errors and all(e["passed"] for e in entries)
     _emit_json(json_path, report.check_json(entries, passed))
@@ -553,6 +563,8 @@ def compare_cmd(input, passes, no_guard, order, input_format, json_path, plot, q
     topo = build_topology(mesh)
     before = summarize(mesh.points, topo)
     _warn_invalid(console, name, before)
+    if passes:
+        _note_fast(console, topo)
     results = [_compare_one(mesh, topo, m, passes, not no_guard, order, before) for m in SMOOTHERS]
     guard = "guarded" if not no_guard else "no guard"
     console.print(report.compare_table(before, results, title=f"{name}: {passes} passes, {guard}, {order}"))

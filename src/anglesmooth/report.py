@@ -22,6 +22,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from rich.table import Table
+from rich.text import Text
 
 from .__about__ import __version__
 
@@ -124,7 +125,7 @@ def _rows(*summaries: Mapping[str, Any]) -> Iterable[tuple[str, str | None, str,
 
 def smooth_table(before: Mapping[str, Any], after: Mapping[str, Any], run: Mapping[str, Any], title: str = "") -> Table:
     """Before | after | change for every key metric, then the run's own numbers (passes, rejected moves, ...)."""
-    table = Table(title=title or None, title_justify="left")
+    table = Table(title=Text(title) if title else None, title_justify="left")
     table.add_column("metric")
     table.add_column("before", justify="right")
     table.add_column("after", justify="right")
@@ -141,7 +142,7 @@ def smooth_table(before: Mapping[str, Any], after: Mapping[str, Any], run: Mappi
 
 def check_table(summary: Mapping[str, Any], title: str = "") -> Table:
     """One file's quality: metric | value."""
-    table = Table(title=title or None, title_justify="left")
+    table = Table(title=Text(title) if title else None, title_justify="left")
     table.add_column("metric")
     table.add_column("value", justify="right")
     for key, sub, label, kind, _ in _rows(summary):
@@ -178,7 +179,7 @@ def files_table(entries: Sequence[Mapping[str, Any]], with_gates: bool) -> Table
         s = e.get("report") or {}
         cells = (s["triangles"] + s["quads"]) if s else None
         row = [
-            str(e["input"]),
+            Text(str(e["input"])),  # a file name, not markup
             fmt(cells, "int"),
             fmt(s.get("min_angle"), "angle"),
             fmt(s.get("max_angle"), "angle"),
@@ -196,7 +197,7 @@ def files_table(entries: Sequence[Mapping[str, Any]], with_gates: bool) -> Table
 
 def compare_table(before: Mapping[str, Any], results: Sequence[Mapping[str, Any]], title: str = "") -> Table:
     """The paper's Tables 1-2: one row for the input, one per method (``results`` as in :func:`compare_json`)."""
-    table = Table(title=title or None, title_justify="left")
+    table = Table(title=Text(title) if title else None, title_justify="left")
     for name in ["method", "passes", "min angle", "max angle", "<20°", ">130°", ">150°", "area ratio",
                  "inverted", "rejected", "time (s)"]:
         table.add_column(name, justify="left" if name == "method" else "right", no_wrap=True)

@@ -53,6 +53,7 @@ __all__ = [
     "laplacian_target",
     "local_scale",
     "warm_up",
+    "would_help",
 ]
 
 #: Smallest number of free nodes for which ``auto`` uses the compiled kernels.  Loading them costs
@@ -98,6 +99,11 @@ def active(topo) -> bool:
     if hit is None:
         hit = topo._cache[key] = topo.n_free >= AUTO_MIN_FREE and _numba_available()
     return hit
+
+
+def would_help(topo) -> bool:
+    """True when ``auto`` would use the compiled kernels for this topology but numba is not installed."""
+    return kernel_mode() == "auto" and topo.n_free >= AUTO_MIN_FREE and not _numba_available()
 
 
 def _k():
