@@ -218,3 +218,32 @@ def test_no_writable_cache_location_compiles_without_caching(tmp_path):
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600, cwd=tmp_path)
     assert res.returncode == 0, res.stderr[-2000:]
     assert res.stdout.split() == ["2"]
+
+
+def _chained(root: BaseException):
+    """What numba reports when a signal handler raised inside its helpers during a kernel call."""
+    try:
+        try:
+            raise root
+        except BaseException as inner:
+            raise SystemError("<function _numba_unpickle> returned a result with an exception set") from inner
+    except SystemError as mid:
+        raise SystemError("CPUDispatcher(<function angle_choose>) returned a result with an exception set") from mid
+
+
+def test_an_interrupt_during_a_kernel_is_raised_as_the_interrupt():
+    def kernel():
+        _chained(KeyboardInterrupt())
+
+    with pytest.raises(KeyboardInterrupt) as info:
+        _fast._run(kernel)
+    assert type(info.value) is KeyboardInterrupt and info.value.__cause__ is None
+
+    class Terminated(KeyboardInterrupt):  # like the CLI's SIGTERM exception
+        pass
+
+    with pytest.raises(Terminated):
+        _fast._run(lambda: _chained(Terminated()))
+    with pytest.raises(SystemError):  # a real error stays what it is
+        _fast._run(lambda: _chained(ValueError("bad")))
+    assert _fast._run(lambda a, b: a + b, 2, 3) == 5

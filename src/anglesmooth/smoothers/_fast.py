@@ -116,9 +116,23 @@ def _k():
 
 
 def _run(fn, *args):
-    """Call a compiled kernel, one at a time across threads (see ``_LOCK``)."""
+    """Call a compiled kernel, one at a time across threads (see ``_LOCK``).
+
+    A signal handler that raises (Ctrl-C's ``KeyboardInterrupt``, the CLI's SIGTERM handler) while
+    a kernel runs may fire inside numba's own Python helpers (``_numba_unpickle``), which then
+    report a chain of ``SystemError`` s ("returned a result with an exception set") whose root cause
+    is that interrupt; the interrupt is re-raised instead, so that it is handled as one.
+    """
     with _LOCK:
-        return fn(*args)
+        try:
+            return fn(*args)
+        except SystemError as exc:
+            root = exc
+            while isinstance(root, SystemError) and root.__cause__ is not None:
+                root = root.__cause__
+            if not isinstance(root, Exception):  # KeyboardInterrupt and its kin
+                raise root from None
+            raise
 
 
 def _csr(topo):
