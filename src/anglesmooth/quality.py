@@ -5,8 +5,9 @@ All functions take the node coordinates ``points`` (N, 2) and a
 :class:`~anglesmooth.topology.CellTopology` (a full ``Topology`` is one),
 whose ``tri`` (nt, 3) and ``quad`` (nq, 4) are already oriented
 counter-clockwise (the mesh's orientation), so a positive signed area means
-"valid" and a negative one "inverted" regardless of how the file was written.  Per-cell arrays list the triangles first, then the
-quads (the order of :func:`anglesmooth.topology.signed_areas`).
+"valid" and a negative one "inverted" regardless of how the file was written.
+Per-cell arrays list the triangles first, then the quads (the order of
+:func:`anglesmooth.topology.signed_areas`).
 
 Definitions
     *Corner angle* at node v of a cell with previous node p and next node n
