@@ -589,3 +589,18 @@ def test_file_names_with_brackets_are_printed_as_they_are(meshes, tmp_path):
     r = run("check", src, out, "--min-angle", "0", "--max-inverted", "1000")
     assert r.exit_code == 0, r.stderr
     assert "mesh[bold].vtu" in r.stderr and "out[1].vtu" in r.stderr  # the one-row-per-file table
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_progress_bar_says_when_the_first_pass_loads_compiled_kernels(compiled):
+    import io as _io
+
+    from rich.console import Console
+
+    buf = _io.StringIO()
+    console = Console(file=buf, force_terminal=True, width=120)
+    with cli_module._progress(console, 3, 10, True, compiled=compiled) as callback:
+        callback(1, None, 0.5)
+    text = buf.getvalue()
+    assert ("compiled kernels" in text) == compiled
+    assert "displacement 5.00e-01" in text

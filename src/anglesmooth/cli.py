@@ -34,6 +34,7 @@ from .errors import AngleSmoothError, GateFileError, MeshWriteError
 from .gates import Gate, evaluate, resolve_thresholds
 from .quality import cell_areas, cell_min_angles, summarize
 from .smoothers import SMOOTHERS
+from .smoothers._fast import active as fast_active
 from .smoothers._fast import kernel_mode, would_help
 from .topology import build_cell_topology, build_topology
 
@@ -319,7 +320,7 @@ def _warn_invalid(console: Console, name: str, summary: dict) -> None:
 
 
 @contextlib.contextmanager
-def _progress(console: Console, total: int, n_cells: int, wanted: bool | None):
+def _progress(console: Console, total: int, n_cells: int, wanted: bool | None, compiled: bool = False):
     auto = wanted is None and console.is_terminal and n_cells > PROGRESS_MIN_CELLS
     if not (wanted or auto) or console.quiet or total == 0:
         yield None
@@ -327,8 +328,10 @@ def _progress(console: Console, total: int, n_cells: int, wanted: bool | None):
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    # the first pass loads the compiled kernels, and on the very first run compiles them (~15 s)
+    first = "smoothing (loading the compiled kernels; the first run ever compiles them)" if compiled else "smoothing"
     with Progress(*columns, console=console, transient=True) as bar:
-        task = bar.add_task("smoothing", total=total)
+        task = bar.add_task(first, total=total)
 
         def callback(k, points, displacement):
             bar.update(task, completed=k, description=f"smoothing (displacement {displacement:.2e})")
@@ -446,7 +449,7 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
     _warn_invalid(console, name, before)
     if passes:
         _note_fast(console, topo)
-    with _progress(console, passes, mesh.n_cells, progress) as callback:
+    with _progress(console, passes, mesh.n_cells, progress, compiled=fast_active(topo)) as callback:
         result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
                             callback=callback)
     after = summarize(result.points, topo)
