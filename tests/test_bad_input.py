@@ -47,7 +47,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from cli_runner import cli_runner
 
 from anglesmooth import cli as cli_module
 from anglesmooth import io as asio
@@ -302,11 +302,6 @@ BY_ID = {c.id: c for c in CASES}
 # --------------------------------------------------------------------------- running a case
 
 
-def _runner() -> CliRunner:
-    try:  # click < 8.2 mixes stderr into stdout unless told not to
-        return CliRunner(mix_stderr=False)
-    except TypeError:
-        return CliRunner()
 
 
 def snapshot(d: Path) -> dict[str, str | None]:
@@ -345,7 +340,7 @@ def run_case(case: Case, d: Path, subprocess_: bool = False, env: dict | None = 
         assert proc.stdout == b""
         code, stderr = proc.returncode, proc.stderr.decode()
     else:
-        r = _runner().invoke(cli, argv, env=env)
+        r = cli_runner().invoke(cli, argv, env=env)
         assert r.stdout == ""
         code, stderr = r.exit_code, r.stderr
     return Outcome(code, stderr, before, snapshot(d), inp, out)
@@ -395,7 +390,7 @@ def test_bad_input_subprocess(case_id, tmp_path):
 def _smooth_json(tmp_path, case_id, *extra):
     case = BY_ID[case_id]
     inp, out = setup_case(case, tmp_path)
-    r = _runner().invoke(cli, [str(inp), str(out), "--json", "-", *extra])
+    r = cli_runner().invoke(cli, [str(inp), str(out), "--json", "-", *extra])
     assert r.exit_code == 0, r.stderr
     import json
 
@@ -435,7 +430,7 @@ def test_clockwise_cells_are_reoriented(tmp_path):
 def test_tangled_input_is_reported_and_untangled(tmp_path):
     case = BY_ID["tangled"]
     inp, out = setup_case(case, tmp_path)
-    r = _runner().invoke(cli, [str(inp), str(out), "--json", "-"])
+    r = cli_runner().invoke(cli, [str(inp), str(out), "--json", "-"])
     import json
 
     doc = json.loads(r.stdout)
@@ -444,7 +439,7 @@ def test_tangled_input_is_reported_and_untangled(tmp_path):
     assert doc["after"]["inverted"] == 0
     for method in ("laplacian", "smart-laplacian", "optimization", "angle"):
         o = tmp_path / f"{method}.vtu"
-        r = _runner().invoke(cli, [str(inp), str(o), "--json", "-", "--method", method])
+        r = cli_runner().invoke(cli, [str(inp), str(o), "--json", "-", "--method", method])
         assert json.loads(r.stdout)["after"]["inverted"] <= 2
 
 
@@ -468,7 +463,7 @@ def test_memory_error_while_reading_is_one_line(tmp_path, monkeypatch):
     monkeypatch.setitem(reader_map, "vtu", boom)
     inp = vtu(P3, [("triangle", T)])(tmp_path)
     before = snapshot(tmp_path)
-    r = _runner().invoke(cli, [str(inp), str(tmp_path / "o.vtu")])
+    r = cli_runner().invoke(cli, [str(inp), str(tmp_path / "o.vtu")])
     assert r.exit_code == 3
     assert "too large to read: out of memory" in error_line(r.stderr)
     assert snapshot(tmp_path) == before
@@ -482,7 +477,7 @@ def test_memory_error_later_is_one_line(tmp_path, monkeypatch, where):
     monkeypatch.setattr(cli_module, where, boom)
     inp = vtu(P3, [("triangle", T)])(tmp_path)
     before = snapshot(tmp_path)
-    r = _runner().invoke(cli, [str(inp), str(tmp_path / "o.vtu")])
+    r = cli_runner().invoke(cli, [str(inp), str(tmp_path / "o.vtu")])
     assert r.exit_code == 3
     assert "out of memory" in error_line(r.stderr)
     assert snapshot(tmp_path) == before
@@ -495,7 +490,7 @@ def test_memory_error_while_writing_leaves_nothing(tmp_path, monkeypatch):
     monkeypatch.setattr(asio, "_write_meshio", boom)
     inp = vtu(P3, [("triangle", T)])(tmp_path)
     before = snapshot(tmp_path)
-    r = _runner().invoke(cli, [str(inp), str(tmp_path / "o.vtu")])
+    r = cli_runner().invoke(cli, [str(inp), str(tmp_path / "o.vtu")])
     assert r.exit_code == 3
     assert "out of memory" in error_line(r.stderr)
     assert snapshot(tmp_path) == before
@@ -506,7 +501,7 @@ def test_huge_declared_node_count(tmp_path):
     path = tmp_path / "huge.msh"
     path.write_text("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n1000000000000\n1 0 0 0\n2 1 0 0\n3 0 1 0\n"
                     "$EndNodes\n$Elements\n1\n1 2 2 0 1 1 2 3\n$EndElements\n")
-    r = _runner().invoke(cli, [str(path), str(tmp_path / "o.vtu")])
+    r = cli_runner().invoke(cli, [str(path), str(tmp_path / "o.vtu")])
     assert r.exit_code == 3
     error_line(r.stderr)
     assert sorted(os.listdir(tmp_path)) == ["huge.msh"]

@@ -18,7 +18,7 @@ import time
 import meshio
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from cli_runner import cli_runner
 
 import anglesmooth
 from anglesmooth import SMOOTHERS, build_topology, read, write
@@ -37,15 +37,10 @@ SMOOTH_KEYS = {
 }
 
 
-def _runner() -> CliRunner:
-    try:  # click < 8.2 mixes stderr into stdout unless told not to
-        return CliRunner(mix_stderr=False)
-    except TypeError:
-        return CliRunner()
 
 
 def run(*args, input=None):
-    return _runner().invoke(cli, [str(a) for a in args], input=input)
+    return cli_runner().invoke(cli, [str(a) for a in args], input=input)
 
 
 def digest(path) -> str:
@@ -230,7 +225,7 @@ def test_in_place(meshes, tmp_path):
 @pytest.mark.parametrize("fmt,key,magic", [("gmsh", "msh", b"$MeshFormat"), ("vtu", "vtu", b"<?xml")])
 def test_stdin_stdout_round_trip(meshes, tmp_path, fmt, key, magic):
     data = meshes[key].read_bytes()
-    result = _runner().invoke(cli, ["-", "-", "--input-format", fmt, "--output-format", fmt], input=data)
+    result = cli_runner().invoke(cli, ["-", "-", "--input-format", fmt, "--output-format", fmt], input=data)
     assert result.exit_code == 0, result.stderr
     assert result.stdout_bytes.startswith(magic)
     assert "min angle" in result.stderr
@@ -246,7 +241,7 @@ def test_stdin_stdout_round_trip(meshes, tmp_path, fmt, key, magic):
 
 
 def test_check_from_stdin_with_json(meshes):
-    result = _runner().invoke(cli, ["check", "-", "--input-format", "gmsh", "--json", "-"],
+    result = cli_runner().invoke(cli, ["check", "-", "--input-format", "gmsh", "--json", "-"],
                               input=meshes["msh"].read_bytes())
     assert result.exit_code == 0
     assert json.loads(result.stdout)["files"][0]["input"] == "<stdin>"

@@ -15,7 +15,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from cli_runner import cli_runner
 
 from anglesmooth import generate as gen
 from anglesmooth.cli import cli
@@ -128,11 +128,7 @@ def test_cli_suggests_the_fast_extra_only_where_it_would_be_used(monkeypatch, tm
     monkeypatch.setattr(_fast, "AUTO_MIN_FREE", 10)  # this mesh counts as large
 
     def stderr(*args):
-        try:
-            runner = CliRunner(mix_stderr=False)
-        except TypeError:  # click >= 8.2 keeps stderr apart
-            runner = CliRunner()
-        r = runner.invoke(cli, [str(a) for a in args])
+        r = cli_runner().invoke(cli, [str(a) for a in args])
         assert r.exit_code == 0, r.output
         return r.stderr
 
@@ -164,11 +160,7 @@ def test_bad_kernel_setting_is_a_usage_error(monkeypatch, tmp_path):
     meshio.write(src, meshio.Mesh(np.c_[m.points, np.zeros(len(m.points))], [("triangle", m.triangles)]))
     out = tmp_path / "out.vtu"
     for args in ([str(src), str(out)], ["compare", str(src)]):
-        try:  # click < 8.2 mixes stderr into stdout unless told not to
-            runner = CliRunner(mix_stderr=False)
-        except TypeError:
-            runner = CliRunner()
-        res = runner.invoke(cli, args)
+        res = cli_runner().invoke(cli, args)
         assert res.exit_code == 2, res.output
         lines = res.stderr.strip().splitlines()
         assert len(lines) == 1 and "ANGLESMOOTH_KERNEL='cuda'" in lines[0], res.stderr

@@ -276,7 +276,7 @@ def _report_gates(console: Console, name: str, gates: list[Gate]) -> bool:
     for g in failed:
         click.echo(g.message(name), err=True)
     if gates and not failed:
-        console.print(f"{name}: all {len(gates)} gates passed", markup=False, highlight=False)
+        _plain(console, f"{name}: all {len(gates)} gates passed")
     return not failed
 
 
@@ -305,11 +305,15 @@ def _stage_json(json_path: str, document: dict) -> Path:
     return Path(tmp)
 
 
-def _note_fast(console: Console, topo) -> None:
-    if would_help(topo):
-        console.print(f"note: {topo.n_free} free nodes and numba is not installed: "
-                      "pip install 'anglesmooth[fast]' makes every pass 3-4x faster on meshes this size",
-                      markup=False, highlight=False)
+def _plain(console: Console, text: str) -> None:
+    """Print text that holds file names or brackets as it is (rich would read ``[...]`` as markup)."""
+    console.print(text, markup=False, highlight=False)
+
+
+def _note_fast(console: Console, topo, passes: int) -> None:
+    if passes and would_help(topo):
+        _plain(console, f"note: {topo.n_free} free nodes and numba is not installed: "
+                        "pip install 'anglesmooth[fast]' makes every pass 3-4x faster on meshes this size")
 
 
 def _warn_invalid(console: Console, name: str, summary: dict) -> None:
@@ -447,8 +451,7 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
     topo = build_topology(mesh, _extra_fixed(mesh, fix_group, user_nodes))
     before = summarize(mesh.points, topo)
     _warn_invalid(console, name, before)
-    if passes:
-        _note_fast(console, topo)
+    _note_fast(console, topo, passes)
     with _progress(console, passes, mesh.n_cells, progress, compiled=fast_active(topo)) as callback:
         result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
                             callback=callback)
@@ -514,7 +517,7 @@ def check_cmd(inputs, input_format, json_path, quiet, debug, **gate_opts) -> Non
         click.echo(line, err=True)
     for e in entries:
         if e["report"] is not None and e["passed"] and thresholds:
-            console.print(f"{e['input']}: all {len(e['gates'])} gates passed", markup=False, highlight=False)
+            _plain(console, f"{e['input']}: all {len(e['gates'])} gates passed")
     errors = any(e["error"] for e in entries)
     passed = not errors and all(e["passed"] for e in entries)
     _emit_json(json_path, report.check_json(entries, passed))
@@ -566,8 +569,7 @@ def compare_cmd(input, passes, no_guard, order, input_format, json_path, plot, q
     topo = build_topology(mesh)
     before = summarize(mesh.points, topo)
     _warn_invalid(console, name, before)
-    if passes:
-        _note_fast(console, topo)
+    _note_fast(console, topo, passes)
     results = [_compare_one(mesh, topo, m, passes, not no_guard, order, before) for m in SMOOTHERS]
     guard = "guarded" if not no_guard else "no guard"
     console.print(report.compare_table(before, results, title=f"{name}: {passes} passes, {guard}, {order}"))

@@ -97,13 +97,17 @@ def active(topo) -> bool:
     key = ("fast-auto",)
     hit = topo._cache.get(key)
     if hit is None:
-        hit = topo._cache[key] = topo.n_free >= AUTO_MIN_FREE and _numba_available()
+        hit = topo._cache[key] = _large(topo) and _numba_available()
     return hit
+
+
+def _large(topo) -> bool:
+    return topo.n_free >= AUTO_MIN_FREE
 
 
 def would_help(topo) -> bool:
     """True when ``auto`` would use the compiled kernels for this topology but numba is not installed."""
-    return kernel_mode() == "auto" and topo.n_free >= AUTO_MIN_FREE and not _numba_available()
+    return kernel_mode() == "auto" and _large(topo) and not _numba_available()
 
 
 def _k():
