@@ -49,7 +49,7 @@ import numpy as np
 import pytest
 from cli_runner import cli_runner
 
-from anglesmooth import cli as cli_module
+from anglesmooth.cli import smooth as cli_module
 from anglesmooth import io as asio
 from anglesmooth.cli import cli
 from anglesmooth.errors import MeshReadError, MeshWriteError

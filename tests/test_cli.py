@@ -22,8 +22,9 @@ from cli_runner import cli_runner
 
 import anglesmooth
 from anglesmooth import SMOOTHERS, build_topology, read, write
-from anglesmooth import cli as cli_module
+from anglesmooth.cli import smooth as cli_module
 from anglesmooth.cli import cli
+from anglesmooth.cli import outputs as cli_outputs
 from anglesmooth.generate import paper_mixed_mesh, paper_triangle_mesh, random_delaunay, structured_triangles
 from anglesmooth.report import SCHEMA_VERSION
 
@@ -594,7 +595,7 @@ def test_progress_bar_says_when_the_first_pass_loads_compiled_kernels(compiled):
 
     buf = _io.StringIO()
     console = Console(file=buf, force_terminal=True, width=120)
-    with cli_module._progress(console, 3, 10, True, compiled=compiled) as callback:
+    with cli_outputs.progress_bar(console, 3, 10, True, compiled=compiled) as callback:
         callback(1, None, 0.5)
     text = buf.getvalue()
     assert ("compiled kernels" in text) == compiled

@@ -1,14 +1,14 @@
 """Interrupting a run (SIGINT, SIGTERM) leaves no partial output and exits non-zero.
 
 The command line runs as a real subprocess on a generated 200 000-triangle mesh
-with a huge number of passes.  cli.py documents exit 130 for SIGINT and 143 for
+with a huge number of passes.  the CLI documents exit 130 for SIGINT and 143 for
 SIGTERM and one ``anglesmooth: error: interrupted`` / ``terminated`` line.
 
 Three moments are tested:
 
 * a fixed delay after start with the plain ``python -m anglesmooth`` (wherever
   the run is, the guarantee must hold);
-* during the passes: a thin launcher wraps ``cli.run_smooth`` so that every
+* during the passes: a thin launcher wraps ``anglesmooth.cli.smooth.run_smooth`` so that every
   pass prints a marker line on stderr, and the signal is sent after the first
   marker;
 * during the write: the launcher makes the meshio write print a marker once the
@@ -40,7 +40,8 @@ MARK = "signal-test:"
 
 LAUNCHER = f"""
 import sys, time
-from anglesmooth import cli, io
+from anglesmooth import io
+from anglesmooth.cli import main, smooth as cli
 
 def run_smooth(*args, callback=None, **kwargs):
     def cb(k, points, displacement):
@@ -58,7 +59,7 @@ orig_smooth, orig_write = cli.run_smooth, io._write_meshio
 cli.run_smooth = run_smooth
 if sys.argv[1] == "write":
     io._write_meshio = write_meshio
-cli.main(sys.argv[2:])
+main(sys.argv[2:])
 """
 
 

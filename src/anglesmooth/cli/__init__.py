@@ -1,0 +1,20 @@
+"""The command line: ``anglesmooth INPUT OUTPUT``, ``anglesmooth check`` and ``anglesmooth compare``.
+
+This package is the only place with a console, progress bars and exit codes.
+Tables, warnings and progress go to stderr; stdout carries only data (the mesh
+when OUTPUT is ``-``, the JSON report with ``--json -``).
+
+Modules: ``main`` (the group, the default command, the entry point), one module
+per command (``smooth``, ``check``, ``compare``), ``options`` (shared click
+options), ``outputs`` (console, gate lines, progress, the JSON file),
+``meshfiles`` (stdin/stdout, path checks) and ``errors`` (exit codes, the one
+error line).  Imports run one way: commands -> options/outputs/meshfiles -> errors.
+
+Exit codes: 0 success, 1 a quality gate failed, 2 usage error, 3 unreadable /
+unsupported / invalid input or unwritable output, 4 internal error (a bug),
+130 interrupted (SIGINT), 141 broken pipe, 143 terminated (SIGTERM).
+"""
+
+from .main import cli, main
+
+__all__ = ["cli", "main"]

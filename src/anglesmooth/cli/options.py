@@ -1,0 +1,36 @@
+"""Options shared by the commands (one definition each)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import click
+
+def gate_options(f: Callable) -> Callable:
+    options = [
+        click.option("--min-angle", type=float, metavar="DEG", help="Gate: smallest corner angle must be >= DEG."),
+        click.option("--max-angle", type=float, metavar="DEG", help="Gate: largest corner angle must be <= DEG."),
+        click.option("--max-inverted", type=click.IntRange(min=0), metavar="N",
+                     help="Gate: at most N inverted cells (0 when any other gate is given)."),
+        click.option("--max-area-ratio", type=click.FloatRange(min=0), metavar="R",
+                     help="Gate: max/min cell area must be <= R."),
+        click.option("--max-aspect-ratio", type=click.FloatRange(min=0), metavar="R",
+                     help="Gate: largest Verdict aspect ratio (triangles and quads) must be <= R."),
+        click.option("--gate-file", type=click.Path(exists=True, dir_okay=False), metavar="FILE",
+                     help="TOML file with gate thresholds (same names, underscores); options override it."),
+        click.option("--exit-zero", is_flag=True, help="Report failed gates but exit 0."),
+    ]
+    for option in reversed(options):
+        f = option(f)
+    return f
+
+
+json_option = click.option("--json", "json_path", metavar="PATH|-", help="Write the report as JSON ('-': stdout).")
+quiet_option = click.option("--quiet", "-q", is_flag=True, help="Print nothing on stderr except errors and failed gates.")
+debug_option = click.option("--debug", is_flag=True, help="Show the traceback of an error.")
+input_format_option = click.option("--input-format", metavar="FORMAT",
+                                    help="meshio format of INPUT (needed for '-'), e.g. gmsh, vtu, vtk.")
+order_option = click.option("--order", type=click.Choice(["colour", "jacobi"]), default="colour", show_default=True,
+                             help="Update order: Gauss-Seidel over colour classes, or all nodes at once.")
+no_guard_option = click.option("--no-guard", is_flag=True,
+                                help="Textbook methods: do not refuse moves that invert cells or lower the local minimum angle.")

@@ -1,0 +1,103 @@
+"""``anglesmooth smooth`` (the default command): smooth one mesh file and write the result."""
+
+from __future__ import annotations
+
+import os
+
+import click
+
+from .. import report
+from ..driver import smooth as run_smooth
+from ..gates import evaluate
+from ..quality import summarize
+from ..smoothers import SMOOTHERS
+from ..smoothers._fast import active as fast_active
+from ..smoothers._fast import kernel_mode
+from ..topology import build_topology
+from .errors import EXIT_GATE, handle_errors
+from .meshfiles import STDIO, check_paths, display, extra_fixed, read_fix_nodes, read_mesh, write_mesh
+from .options import (debug_option, gate_options, input_format_option, json_option, no_guard_option, order_option,
+                      quiet_option)
+from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, progress_bar,
+                      report_gates, stage_json, warn_invalid)
+
+
+@click.command("smooth")
+@click.argument("input", metavar="INPUT")
+@click.argument("output", metavar="[OUTPUT]", required=False)
+@click.option("--method", "-m", type=click.Choice(list(SMOOTHERS)), default="angle", show_default=True,
+              help="Smoothing method (from the registry).")
+@click.option("--passes", "-n", type=click.IntRange(min=0), default=10, show_default=True, help="Maximum passes.")
+@click.option("--tol", type=click.FloatRange(min=0), metavar="T",
+              help="Stop once a pass moves no node by more than T x the mean edge length.")
+@no_guard_option
+@order_option
+@click.option("--fix-group", multiple=True, metavar="NAME", help="Also fix the nodes of this named group (repeatable).")
+@click.option("--fix-nodes", type=click.Path(exists=True, dir_okay=False), metavar="FILE",
+              help="Also fix these nodes: 0-based indices, whitespace-separated, '#' comments.")
+@click.option("--force", is_flag=True, help="Allow OUTPUT to be the input file.")
+@click.option("--in-place", is_flag=True, help="Overwrite INPUT (give no OUTPUT).")
+@input_format_option
+@click.option("--output-format", metavar="FORMAT", help="meshio format of OUTPUT (needed for '-').")
+@gate_options
+@json_option
+@click.option("--plot", type=click.Path(dir_okay=False), metavar="PNG",
+              help="Write a PNG: mesh before/after coloured by minimum angle, angle histograms.")
+@click.option("--progress/--no-progress", default=None,
+              help=f"Progress bar over passes [default: on a terminal with > {PROGRESS_MIN_CELLS} cells].")
+@quiet_option
+@debug_option
+@handle_errors
+def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, fix_nodes, force, in_place,
+               input_format, output_format, json_path, plot, progress, quiet, debug, **gate_opts) -> None:
+    """Smooth INPUT and write OUTPUT ('-' for stdin/stdout); gates apply to the result, after writing it."""
+    console = make_console(quiet)
+    output = check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
+                         output_format=output_format, json_path=json_path)
+    thresholds, exit_zero = gate_thresholds(gate_opts)
+    kernel_mode()  # a bad ANGLESMOOTH_KERNEL is a usage error before any work
+    if plot:
+        from ..plot import require_matplotlib
+
+        require_matplotlib()
+    user_nodes = read_fix_nodes(fix_nodes) if fix_nodes else None
+    name, out_name = display(input), "<stdout>" if output == STDIO else output
+    mesh = read_mesh(input, input_format)
+    topo = build_topology(mesh, extra_fixed(mesh, fix_group, user_nodes))
+    before = summarize(mesh.points, topo)
+    warn_invalid(console, name, before)
+    note_fast(console, topo, passes)
+    with progress_bar(console, passes, mesh.n_cells, progress, compiled=fast_active(topo)) as callback:
+        result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
+                            callback=callback)
+    after = summarize(result.points, topo)
+    gates = evaluate(after, thresholds)
+    document = report.smooth_json(
+        input=name, output=out_name, method=method, guard=not no_guard, order=order, passes=result.passes,
+        passes_requested=passes, tol=tol, displacements=result.displacements, rejected=result.rejected,
+        before=before, after=after, elapsed_s=result.elapsed_s, gates=gates, passed=all(g.passed for g in gates))
+    # the JSON file is staged first and renamed after the mesh is written: an error in
+    # either leaves neither behind
+    staged = stage_json(json_path, document) if json_path not in (None, STDIO) else None
+    try:
+        write_mesh(mesh, output, result.points, output_format)
+    except BaseException:
+        if staged is not None:
+            staged.unlink(missing_ok=True)
+        raise
+    if staged is not None:
+        os.replace(staged, json_path)
+    elif json_path == STDIO:
+        emit_json(json_path, document)
+    run = {"passes performed": f"{result.passes} / {passes}", "rejected moves": result.rejected,
+           "last displacement": f"{result.displacements[-1] if result.displacements else 0:.3g} x mean edge",
+           "time": f"{result.elapsed_s:.3f} s"}
+    guard = "guarded" if not no_guard else "no guard"
+    console.print(report.smooth_table(before, after, run, title=f"{name} -> {out_name}: {method}, {guard}, {order}"))
+    passed = report_gates(console, out_name, gates)
+    if plot:
+        from ..plot import plot_smooth
+
+        plot_smooth(plot, topo, mesh.points, result.points, title=f"{name}: {method}, {result.passes} passes")
+    if not passed and not exit_zero:
+        raise click.exceptions.Exit(EXIT_GATE)
