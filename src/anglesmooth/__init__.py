@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .__about__ import __version__
+from .batch import FileResult, check_files, smooth_files
 from .driver import SmoothResult, smooth
 from .errors import (
     AngleSmoothError,
@@ -47,6 +48,7 @@ __all__ = [
     "SMOOTHERS",
     "AngleSmoothError",
     "CellTopology",
+    "FileResult",
     "InvalidMeshError",
     "Mesh2D",
     "MeshReadError",
@@ -58,8 +60,10 @@ __all__ = [
     "__version__",
     "build_cell_topology",
     "build_topology",
+    "check_files",
     "read",
     "smooth",
+    "smooth_files",
     "summarize",
     "write",
 ]

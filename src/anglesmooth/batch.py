@@ -1,0 +1,577 @@
+"""Many files at once: :func:`smooth_files` and :func:`check_files`, in this process, a pool or a Dask cluster.
+
+A *task* is one file: read it, measure (and smooth and write) it, and return a
+small picklable :class:`FileResult`; an unreadable file gives an error result
+and the other files go on.  One executor interface runs the tasks:
+
+* ``jobs=1`` (the default): one after the other in this process;
+* ``jobs=N`` (``0`` = every core this process may use): a
+  :class:`concurrent.futures.ProcessPoolExecutor` of ``min(N, files)`` spawned
+  workers, each limited to ``cores // workers`` numba threads (so workers x
+  threads never exceeds the cores);
+* ``client=``: a Dask ``distributed.Client``; each worker reads and writes the
+  files itself, so the paths must name the same files there (a shared file
+  system mounted at the same place; paths are made absolute before they are
+  sent).
+
+The same task function runs in all three, on the same arguments, so the
+results and the written files are the same bit for bit.  Results come back
+in input order, and ``on_result(index, result)`` is called in input order too
+(as soon as every earlier file is done), so messages built from it are stable.
+
+Interruption: a ``KeyboardInterrupt`` (or the CLI's SIGTERM exception) while a
+pool runs cancels the files not started and sends SIGTERM to the workers; a
+worker in the middle of a write removes its temporary file and exits, so no
+partial output is left (every output is written atomically).  Files finished
+before the interruption keep their complete outputs.
+
+>>> import os, tempfile
+>>> from anglesmooth.generate import structured_quads
+>>> from anglesmooth.io import write
+>>> d = tempfile.mkdtemp()
+>>> write(structured_quads(4, 4), os.path.join(d, "a.vtu"))
+>>> [r.exit_code for r in smooth_files([os.path.join(d, "a.vtu"), os.path.join(d, "no.vtu")], output_dir=d,
+...                                   suffix="_s", passes=2)]
+[0, 3]
+>>> sorted(os.listdir(d))
+['a.vtu', 'a_s.vtu']
+>>> check_files([os.path.join(d, "a_s.vtu")], thresholds={"min_angle": 30})[0].passed
+True
+>>> for f in os.listdir(d): os.remove(os.path.join(d, f))
+>>> os.rmdir(d)
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import fnmatch
+import glob
+import io as _stdio
+import multiprocessing
+import os
+import signal
+import sys
+import traceback
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path, PurePath
+from typing import Any
+
+from .errors import AngleSmoothError
+
+__all__ = [
+    "MESH_SUFFIXES",
+    "BatchError",
+    "FileResult",
+    "check_file",
+    "check_files",
+    "cores",
+    "find_mesh_files",
+    "output_name",
+    "smooth_files",
+]
+
+#: File suffixes a directory is searched for (meshio formats that can hold a 2D mesh).
+MESH_SUFFIXES = (".msh", ".vtu", ".vtk", ".xdmf", ".xmf", ".inp", ".med", ".mesh", ".meshb", ".nas", ".bdf",
+                 ".fem", ".su2", ".ugrid", ".obj", ".off", ".ply", ".stl", ".avs", ".f3grid", ".mdpa", ".post")
+
+
+class BatchError(AngleSmoothError):
+    """Arguments of a batch that cannot be used (two files with one output, an output over an input)."""
+
+    exit_code = 2
+
+
+@dataclass(frozen=True)
+class FileResult:
+    """The outcome of one file (picklable; the same from every back end).
+
+    Attributes
+    ----------
+    input, output : str
+        The paths as given (``output`` is None for a check).
+    report : dict or None
+        Smoothing: the JSON document of :func:`anglesmooth.report.smooth_json`;
+        check: the quality summary.  None when the file failed.
+    gates : list[dict]
+        ``{name, threshold, value, passed}`` per gate.
+    passed : bool or None
+        All gates passed (None when the file failed).
+    error : str or None
+        The one-line message of a failure.
+    exit_code : int
+        0 done, 1 a gate failed, 2 an option that does not fit this file
+        (e.g. an unknown fix group), 3 unreadable input or unwritable output,
+        4 an internal error.
+    messages : tuple[str, ...]
+        One line per failed gate.
+    elapsed_s : float
+        Wall time of the task.
+    traceback : str or None
+        The traceback of a failure (for ``--debug``).
+    """
+
+    input: str
+    output: str | None
+    report: dict | None = None
+    gates: list = field(default_factory=list)
+    passed: bool | None = None
+    error: str | None = None
+    exit_code: int = 0
+    messages: tuple = ()
+    elapsed_s: float = 0.0
+    traceback: str | None = None
+
+    @property
+    def error_line(self) -> str | None:
+        """The error as one line that names the input."""
+        if self.error is None:
+            return None
+        return self.error if self.input in self.error else f"{self.input}: {self.error}"
+
+    @property
+    def entry(self) -> dict[str, Any]:
+        """The check form: ``{input, report, gates, passed, error}`` (see ``anglesmooth.report.check_json``)."""
+        return {"input": self.input, "report": self.report, "gates": self.gates, "passed": self.passed,
+                "error": self.error}
+
+
+def cores() -> int:
+    """The number of cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+# --------------------------------------------------------------------------------------------- file lists
+
+
+def _hidden(name: str) -> bool:
+    return name.startswith(".")
+
+
+def _walk(root: str) -> list[tuple[str, str]]:
+    found = []
+    for top, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if not _hidden(d))
+        for f in sorted(files):
+            if not _hidden(f) and Path(f).suffix.lower() in MESH_SUFFIXES:
+                path = os.path.join(top, f)
+                found.append((path, os.path.relpath(path, root)))
+    return found
+
+
+def _excluded(path: str, patterns: Sequence[str]) -> bool:
+    posix = PurePath(path).as_posix()
+    return any(PurePath(posix).match(g) or fnmatch.fnmatch(posix, g) for g in patterns)
+
+
+def expand(paths: Iterable[str], exclude: Sequence[str] = ()) -> list[tuple[str, str]]:
+    """(path, name relative to the directory it was found in) for every file of ``paths``.
+
+    A directory is walked for files with a suffix in :data:`MESH_SUFFIXES`
+    (sorted, hidden files and directories skipped); a pattern that names no
+    existing file is expanded like a shell glob (``**`` included); other paths
+    are kept as they are (a missing file then fails as its own task).  A path
+    that matches one of the ``exclude`` globs (a name such as ``*.vtk``, a
+    trailing part such as ``build/*``, or the whole path) is left out.
+    Repeated paths are kept once.
+    """
+    out: list[tuple[str, str]] = []
+    for p in map(str, paths):
+        if p != "-" and os.path.isdir(p):
+            out += _walk(p)
+        elif p != "-" and not os.path.exists(p) and glob.has_magic(p):
+            for match in sorted(glob.glob(p, recursive=True)):
+                out += _walk(match) if os.path.isdir(match) else [(match, os.path.basename(match))]
+        else:
+            out.append((p, os.path.basename(p)))
+    seen: set[str] = set()
+    unique = []
+    for path, rel in out:
+        if path not in seen and not _excluded(path, exclude):
+            seen.add(path)
+            unique.append((path, rel))
+    return unique
+
+
+def find_mesh_files(paths: Iterable[str], exclude: Sequence[str] = ()) -> list[str]:
+    """The files named by ``paths`` (files, directories, globs), without the ``exclude`` ones (see :func:`expand`).
+
+    >>> find_mesh_files(["no-such-file.msh"])
+    ['no-such-file.msh']
+    """
+    return [path for path, _ in expand(paths, exclude)]
+
+
+def output_name(path: str, *, output_dir: str | None = None, suffix: str = "", extension: str | None = None,
+                relative: str | None = None) -> str:
+    """Where the result of ``path`` goes: ``output_dir/relative`` (or beside ``path``) with ``suffix`` added
+    to the stem and the extension replaced by ``extension``.
+
+    >>> output_name("in/a.msh", output_dir="out", suffix="_s", extension=".vtu")
+    'out/a_s.vtu'
+    >>> output_name("in/a.msh", suffix="_s")
+    'in/a_s.msh'
+    """
+    rel = PurePath(relative if relative is not None else os.path.basename(path))
+    name = rel.stem + suffix + (extension if extension is not None else rel.suffix)
+    if output_dir is None:
+        return str(PurePath(path).with_name(name))
+    return str(PurePath(output_dir) / rel.with_name(name))
+
+
+def plan_outputs(inputs: Sequence[str], outputs: Sequence[str], in_place: bool) -> None:
+    """Refuse two inputs with one output, and an output that is another file's input (unless in place)."""
+    seen: dict[str, str] = {}
+    resolved_inputs = {os.path.realpath(p): p for p in inputs}
+    for src, dst in zip(inputs, outputs):
+        key = os.path.realpath(dst)
+        if key in seen:
+            raise BatchError(f"'{seen[key]}' and '{src}' would both be written to '{dst}'")
+        seen[key] = src
+        if not in_place and key in resolved_inputs:
+            raise BatchError(f"the output of '{src}' would overwrite the input '{resolved_inputs[key]}' "
+                             "(use --in-place to rewrite the inputs, or another --output-dir / --suffix)")
+
+
+# -------------------------------------------------------------------------------------------------- tasks
+
+
+def _failure(exc: BaseException) -> tuple[int, str]:
+    if isinstance(exc, AngleSmoothError):
+        return int(getattr(exc, "exit_code", 3)), str(exc)
+    if isinstance(exc, MemoryError):
+        return 3, "out of memory (the mesh is too large for this machine)"
+    return 4, f"internal error: {type(exc).__name__}: {exc} (please report it; --debug shows the traceback)"
+
+
+def _fixed_mask(mesh, groups: Sequence[str], nodes: Sequence[int] | None):
+    """The extra fixed nodes of one mesh (an unknown group or a node out of range: exit 2 for this file)."""
+    if not groups and nodes is None:
+        return None
+    import numpy as np
+
+    mask = np.zeros(mesh.n_points, dtype=bool)
+    for name in groups:
+        if name not in mesh.groups:
+            known = ", ".join(sorted(mesh.groups)) or "none (the mesh has no named groups)"
+            raise BatchError(f"--fix-group: no group {name!r} in the mesh; available: {known}")
+        mask[mesh.groups[name]] = True
+    if nodes is not None and len(nodes):
+        idx = np.asarray(nodes, dtype=np.int64)
+        bad = idx[(idx < 0) | (idx >= mesh.n_points)]
+        if bad.size:
+            raise BatchError(f"--fix-nodes: node {int(bad[0])} out of range (the mesh has nodes 0..{mesh.n_points - 1})")
+        mask[idx] = True
+    return mask
+
+
+def _read(path: str, input_format: str | None):
+    from .io import read
+
+    with contextlib.redirect_stdout(_stdio.StringIO()):  # meshio prints blank lines; stdout may carry JSON
+        return read(path, file_format=input_format)
+
+
+@dataclass(frozen=True)
+class _Task:
+    name: str  # as given, for messages and results
+    path: str  # where to read (absolute for a cluster)
+    input_format: str | None
+    thresholds: dict
+
+    def failed(self, exc: BaseException, elapsed: float, tb: str | None = None) -> FileResult:
+        code, message = _failure(exc)
+        for where, given in self._renames():  # a cluster gets absolute paths: report the names given
+            if where != given:
+                message = message.replace(where, given)
+        return FileResult(self.name, self._output_name(), error=message, exit_code=code, elapsed_s=elapsed,
+                          traceback=tb)
+
+    def _output_name(self) -> str | None:
+        return None
+
+    def _renames(self) -> list[tuple[str, str]]:
+        return [(self.path, self.name)]
+
+    def __call__(self) -> FileResult:
+        import time
+
+        t0 = time.perf_counter()
+        try:
+            return self.run(t0)
+        except Exception as exc:  # one file's failure is its result; interrupts propagate
+            if _WORKER["stop"]:
+                raise
+            return self.failed(exc, time.perf_counter() - t0, traceback.format_exc())
+
+
+@dataclass(frozen=True)
+class _CheckTask(_Task):
+    reader: Callable | None = None
+
+    def run(self, t0: float) -> FileResult:
+        import time
+
+        from .gates import evaluate
+        from .quality import summarize
+        from .topology import build_cell_topology
+
+        mesh = (self.reader or _read)(self.path, self.input_format)
+        summary = summarize(mesh.points, build_cell_topology(mesh))  # no smoothing tables needed
+        gates = evaluate(summary, self.thresholds)
+        return FileResult(self.name, None, report=summary, gates=[g.to_dict() for g in gates],
+                          passed=all(g.passed for g in gates),
+                          exit_code=0 if all(g.passed for g in gates) else 1,
+                          messages=tuple(g.message(self.name) for g in gates if not g.passed),
+                          elapsed_s=time.perf_counter() - t0)
+
+
+@dataclass(frozen=True)
+class _SmoothTask(_Task):
+    output: str = ""  # where to write
+    output_display: str = ""
+    output_format: str | None = None
+    method: str = "angle"
+    passes: int = 10
+    tol: float | None = None
+    guard: bool = True
+    order: str = "colour"
+    fix_groups: tuple = ()
+    fix_nodes: tuple | None = None
+
+    def _output_name(self) -> str | None:
+        return self.output_display
+
+    def _renames(self) -> list[tuple[str, str]]:
+        return [(self.output, self.output_display), (self.path, self.name)]
+
+    def run(self, t0: float) -> FileResult:
+        import time
+
+        from . import report
+        from .driver import smooth
+        from .gates import evaluate
+        from .io import write
+        from .quality import summarize
+        from .topology import build_topology
+
+        mesh = _read(self.path, self.input_format)
+        topo = build_topology(mesh, _fixed_mask(mesh, self.fix_groups, self.fix_nodes))
+        before = summarize(mesh.points, topo)
+        result = smooth(mesh, self.method, self.passes, tol=self.tol, guard=self.guard, order=self.order,
+                        topology=topo)
+        after = summarize(result.points, topo)
+        gates = evaluate(after, self.thresholds)
+        passed = all(g.passed for g in gates)
+        document = report.smooth_json(
+            input=self.name, output=self.output_display, method=self.method, guard=self.guard, order=self.order,
+            passes=result.passes, passes_requested=self.passes, tol=self.tol, displacements=result.displacements,
+            rejected=result.rejected, before=before, after=after, elapsed_s=result.elapsed_s, gates=gates,
+            passed=passed)
+        write(mesh, self.output, points=result.points, file_format=self.output_format)
+        return FileResult(self.name, self.output_display, report=document, gates=document["gates"], passed=passed,
+                          exit_code=0 if passed else 1,
+                          messages=tuple(g.message(self.output_display) for g in gates if not g.passed),
+                          elapsed_s=time.perf_counter() - t0)
+
+
+# ---------------------------------------------------------------------------------------------- executors
+
+# per process: set in pool workers by _init_worker; "stop" once SIGTERM arrived
+_WORKER = {"busy": False, "stop": False}
+
+
+class _Stop(BaseException):
+    """Raised in a pool worker by SIGTERM: unwinds the task (removing temporary files) and ends the worker."""
+
+
+def _on_stop(signum, frame):  # pragma: no cover - runs in worker processes
+    _WORKER["stop"] = True
+    if _WORKER["busy"]:
+        raise _Stop()
+    os._exit(128 + signum)
+
+
+def _init_worker(threads: int) -> None:  # pragma: no cover - runs in worker processes
+    """Pool worker set-up: Ctrl-C is the parent's business, SIGTERM stops cleanly, numba gets ``threads``."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _on_stop)
+    user = os.environ.get("NUMBA_NUM_THREADS", "")
+    threads = min(threads, int(user)) if user.isdigit() and int(user) > 0 else threads
+    os.environ["NUMBA_NUM_THREADS"] = str(threads)  # read when numba is first imported
+    if "numba" in sys.modules:
+        sys.modules["numba"].set_num_threads(threads)
+
+
+def _execute(task: _Task) -> FileResult:
+    _WORKER["busy"] = True
+    try:
+        return task()
+    except BaseException:
+        if _WORKER["stop"]:  # pragma: no cover - runs in worker processes
+            os._exit(128 + signal.SIGTERM)
+        raise
+    finally:
+        _WORKER["busy"] = False
+
+
+class _InOrder:
+    """Collect results by index and hand them to ``on_result`` in input order."""
+
+    def __init__(self, n: int, on_result: Callable[[int, FileResult], None] | None):
+        self.results: list[FileResult | None] = [None] * n
+        self.next = 0
+        self.on_result = on_result
+
+    def add(self, i: int, result: FileResult) -> None:
+        self.results[i] = result
+        while self.next < len(self.results) and self.results[self.next] is not None:
+            if self.on_result is not None:
+                self.on_result(self.next, self.results[self.next])
+            self.next += 1
+
+
+def _stop_pool(pool: cf.ProcessPoolExecutor) -> None:
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in processes:
+        with contextlib.suppress(Exception):
+            p.terminate()  # SIGTERM: the worker removes its temporary file and exits
+    for p in processes:
+        with contextlib.suppress(Exception):
+            p.join(timeout=30)
+            if p.is_alive():
+                p.kill()
+
+
+def _run_pool(tasks: Sequence[_Task], jobs: int, collect: _InOrder) -> None:
+    workers = min(jobs, len(tasks))
+    pool = cf.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                                  initializer=_init_worker, initargs=(max(1, cores() // workers),))
+    try:
+        futures = {pool.submit(_execute, t): i for i, t in enumerate(tasks)}
+        for future in cf.as_completed(futures):
+            i = futures[future]
+            try:
+                result = future.result()
+            except cf.process.BrokenProcessPool as exc:
+                result = tasks[i].failed(OSError(f"a worker process died ({exc}); out of memory?"), 0.0)
+            except Exception as exc:
+                result = tasks[i].failed(exc, 0.0)
+            collect.add(i, result)
+    except BaseException:
+        _stop_pool(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _run_dask(tasks: Sequence[_Task], client, collect: _InOrder) -> None:
+    from distributed import as_completed
+
+    futures = [client.submit(_execute, t, pure=False) for t in tasks]
+    index = {f.key: i for i, f in enumerate(futures)}
+    try:
+        for future in as_completed(futures):
+            i = index[future.key]
+            try:
+                result = future.result()
+            except Exception as exc:
+                result = tasks[i].failed(exc, 0.0)
+            collect.add(i, result)
+            future.release()
+    except BaseException:
+        with contextlib.suppress(Exception):
+            client.cancel(futures)
+        raise
+
+
+def _run(tasks: Sequence[_Task], jobs: int, client, on_result) -> list[FileResult]:
+    collect = _InOrder(len(tasks), on_result)
+    jobs = cores() if jobs == 0 else jobs
+    if jobs < 0:
+        raise ValueError("jobs must be >= 0")
+    if client is not None:
+        _run_dask(tasks, client, collect)
+    elif jobs == 1 or len(tasks) <= 1:
+        for i, task in enumerate(tasks):
+            collect.add(i, _execute(task))
+    else:
+        _run_pool(tasks, jobs, collect)
+    return collect.results  # type: ignore[return-value]
+
+
+def _where(path: str, client) -> str:
+    return os.path.abspath(path) if client is not None else path
+
+
+# ------------------------------------------------------------------------------------------------- public
+
+
+def check_file(path: str, *, input_format: str | None = None, thresholds: dict | None = None,
+               reader: Callable | None = None) -> FileResult:
+    """Measure one file and apply the gates (``reader(path, input_format)`` replaces :func:`anglesmooth.read`)."""
+    return _execute(_CheckTask(str(path), str(path), input_format, dict(thresholds or {}), reader))
+
+
+def check_files(paths: Sequence[str], *, input_format: str | None = None, thresholds: dict | None = None,
+                jobs: int = 1, client=None, on_result: Callable[[int, FileResult], None] | None = None,
+                reader: Callable | None = None) -> list[FileResult]:
+    """:func:`check_file` for every path, one result per path in input order (see the module docstring)."""
+    tasks = [_CheckTask(str(p), _where(str(p), client), input_format, dict(thresholds or {}), reader)
+             for p in paths]
+    return _run(tasks, jobs, client, on_result)
+
+
+def smooth_files(
+    paths: Sequence[str],
+    outputs: Sequence[str] | None = None,
+    *,
+    output_dir: str | None = None,
+    suffix: str = "",
+    extension: str | None = None,
+    in_place: bool = False,
+    method: str = "angle",
+    passes: int = 10,
+    tol: float | None = None,
+    guard: bool = True,
+    order: str = "colour",
+    fix_groups: Sequence[str] = (),
+    fix_nodes: Sequence[int] | None = None,
+    input_format: str | None = None,
+    output_format: str | None = None,
+    thresholds: dict | None = None,
+    jobs: int = 1,
+    client=None,
+    on_result: Callable[[int, FileResult], None] | None = None,
+) -> list[FileResult]:
+    """Read, smooth and write every file; one :class:`FileResult` per path, in input order.
+
+    The outputs are ``outputs`` (one per path), or each input rewritten
+    (``in_place``), or :func:`output_name` of each path (``output_dir``,
+    ``suffix``, ``extension``).  Two inputs with one output, or an output
+    over an input (unless ``in_place``), raise :class:`BatchError` before any
+    work.  The smoothing arguments are those of :func:`anglesmooth.smooth`;
+    ``thresholds`` are gates (see :mod:`anglesmooth.gates`) on each result.
+    """
+    paths = [str(p) for p in paths]
+    if outputs is None:
+        if in_place:
+            outputs = list(paths)
+        elif output_dir is None and not suffix and extension is None:
+            raise BatchError("give outputs, output_dir, suffix, extension or in_place")
+        else:
+            outputs = [output_name(p, output_dir=output_dir, suffix=suffix, extension=extension) for p in paths]
+    outputs = [str(o) for o in outputs]
+    if len(outputs) != len(paths):
+        raise BatchError(f"{len(paths)} inputs but {len(outputs)} outputs")
+    plan_outputs(paths, outputs, in_place)
+    nodes = None if fix_nodes is None else tuple(int(i) for i in fix_nodes)
+    tasks = [_SmoothTask(p, _where(p, client), input_format, dict(thresholds or {}), output=_where(o, client),
+                         output_display=o, output_format=output_format, method=method, passes=passes, tol=tol,
+                         guard=guard, order=order, fix_groups=tuple(fix_groups), fix_nodes=nodes)
+             for p, o in zip(paths, outputs)]
+    return _run(tasks, jobs, client, on_result)
