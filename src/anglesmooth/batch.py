@@ -286,7 +286,7 @@ class _Task:
     def failed(self, exc: BaseException, elapsed: float, tb: str | None = None) -> FileResult:
         code, message = _failure(exc)
         for where, given in self._renames():  # a cluster gets absolute paths: report the names given
-            if where != given:
+            if where != given and where == os.path.abspath(given):
                 message = message.replace(where, given)
         return FileResult(self.name, self._output_name(), error=message, exit_code=code, elapsed_s=elapsed,
                           traceback=tb)
@@ -512,17 +512,26 @@ def _where(path: str, client) -> str:
 
 
 def check_file(path: str, *, input_format: str | None = None, thresholds: dict | None = None,
-               reader: Callable | None = None) -> FileResult:
-    """Measure one file and apply the gates (``reader(path, input_format)`` replaces :func:`anglesmooth.read`)."""
-    return _execute(_CheckTask(str(path), str(path), input_format, dict(thresholds or {}), reader))
+               reader: Callable | None = None, name: str | None = None) -> FileResult:
+    """Measure one file and apply the gates.
+
+    ``reader(path, input_format)`` replaces :func:`anglesmooth.read`; ``name``
+    is the file's name in the result and its messages (default: ``path``).
+    """
+    return _execute(_CheckTask(str(name or path), str(path), input_format, dict(thresholds or {}), reader))
 
 
 def check_files(paths: Sequence[str], *, input_format: str | None = None, thresholds: dict | None = None,
                 jobs: int = 1, client=None, on_result: Callable[[int, FileResult], None] | None = None,
-                reader: Callable | None = None) -> list[FileResult]:
-    """:func:`check_file` for every path, one result per path in input order (see the module docstring)."""
-    tasks = [_CheckTask(str(p), _where(str(p), client), input_format, dict(thresholds or {}), reader)
-             for p in paths]
+                reader: Callable | None = None, names: Sequence[str] | None = None) -> list[FileResult]:
+    """:func:`check_file` for every path, one result per path in input order (see the module docstring).
+
+    ``reader`` must be a module-level function when ``jobs`` or ``client``
+    runs the files elsewhere (it is pickled).
+    """
+    names = [str(p) for p in paths] if names is None else [str(n) for n in names]
+    tasks = [_CheckTask(n, _where(str(p), client), input_format, dict(thresholds or {}), reader)
+             for p, n in zip(paths, names)]
     return _run(tasks, jobs, client, on_result)
 
 

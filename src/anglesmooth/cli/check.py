@@ -3,17 +3,14 @@
 from __future__ import annotations
 
 import sys
-import traceback
 
 import click
 
 from .. import report
-from ..errors import AngleSmoothError
-from ..gates import evaluate
-from ..quality import summarize
-from ..topology import build_cell_topology
-from .errors import EXIT_GATE, EXIT_INPUT, classify, error, handle_errors
-from .meshfiles import display, read_mesh
+from ..batch import FileResult, check_file, check_files
+from .errors import Usage, error, handle_errors
+from .many import exclude_option, executor, expand_inputs, jobs_option, scheduler_option, worst_exit
+from .meshfiles import STDIO, display, read_mesh
 from .options import debug_option, gate_options, input_format_option, json_option, quiet_option
 from .outputs import emit_json, gate_thresholds, make_console, plain
 
@@ -22,25 +19,42 @@ from .outputs import emit_json, gate_thresholds, make_console, plain
 @click.argument("inputs", nargs=-1, required=True, metavar="INPUT...")
 @input_format_option
 @gate_options
+@exclude_option
+@jobs_option
+@scheduler_option
 @json_option
 @quiet_option
 @debug_option
 @handle_errors
-def check_cmd(inputs, input_format, json_path, quiet, debug, **gate_opts) -> None:
+def check_cmd(inputs, input_format, exclude, jobs, scheduler, json_path, quiet, debug, **gate_opts) -> None:
     """Report the quality of meshes without changing them.
 
+    An INPUT may be a directory (searched for mesh files by suffix) or a glob.
     Exit 0 when every file passes every gate, 1 when a gate fails, 3 when a file
     cannot be read (the others are still checked; 3 wins over 1).
     """
     console = make_console(quiet)
     thresholds, exit_zero = gate_thresholds(gate_opts)
+    paths = [p for p, _ in expand_inputs(inputs, exclude)]
+    if not paths:
+        plain(console, "no files to check: every file matches --exclude")
+        emit_json(json_path, report.check_json([], True))
+        return
+    if STDIO in paths and (jobs != 1 or scheduler):
+        raise Usage("'-' (stdin) cannot be checked with --jobs or --scheduler")
     entries, failures = [], []
-    for path in inputs:
-        entry, lines = check_one(path, input_format, thresholds, debug)
+
+    def on_result(i, result):
+        entry, lines = _entry(result, debug)
         entries.append(entry)
-        failures += lines
+        failures.extend(lines)
+
+    with executor(scheduler, jobs) as client:
+        results = check_files(paths, input_format=input_format, thresholds=thresholds, jobs=jobs, client=client,
+                              on_result=on_result, names=[display(p) for p in paths],
+                              reader=read_mesh if STDIO in paths else None)
     if len(entries) == 1 and entries[0]["report"] is not None:
-        console.print(report.check_table(entries[0]["report"], title=display(inputs[0])))
+        console.print(report.check_table(entries[0]["report"], title=display(paths[0])))
     elif len(entries) > 1:
         console.print(report.files_table(entries, with_gates=bool(thresholds)))
     for line in failures:
@@ -51,25 +65,21 @@ def check_cmd(inputs, input_format, json_path, quiet, debug, **gate_opts) -> Non
     errors = any(e["error"] for e in entries)
     passed = not errors and all(e["passed"] for e in entries)
     emit_json(json_path, report.check_json(entries, passed))
-    if errors:
-        raise click.exceptions.Exit(EXIT_INPUT)
-    if not passed and not exit_zero:
-        raise click.exceptions.Exit(EXIT_GATE)
+    code = worst_exit(results, exit_zero)
+    if code:
+        raise click.exceptions.Exit(code)
+
+
+def _entry(result: FileResult, debug: bool) -> tuple[dict, list[str]]:
+    """A file's JSON entry and failed-gate lines; an error gets its one line here (in input order)."""
+    if result.error is not None:
+        if debug and result.traceback:
+            sys.stderr.write(result.traceback)
+        error(result.error_line)
+    return result.entry, list(result.messages)
 
 
 def check_one(path: str, input_format, thresholds: dict, debug: bool) -> tuple[dict, list[str]]:
     """Read and measure one file: its JSON entry and its failed-gate lines (an unreadable file: an error entry)."""
-    name = display(path)
-    entry = {"input": name, "report": None, "gates": [], "passed": None, "error": None}
-    try:
-        mesh = read_mesh(path, input_format)
-        summary = summarize(mesh.points, build_cell_topology(mesh))  # no smoothing tables needed
-    except (AngleSmoothError, MemoryError) as exc:
-        if debug:
-            traceback.print_exc(file=sys.stderr)
-        entry["error"] = classify(exc)[1]
-        error(f"{name}: {entry['error']}" if name not in entry["error"] else entry["error"])
-        return entry, []
-    gates = evaluate(summary, thresholds)
-    entry.update(report=summary, gates=[g.to_dict() for g in gates], passed=all(g.passed for g in gates))
-    return entry, [g.message(name) for g in gates if not g.passed]
+    return _entry(check_file(path, input_format=input_format, thresholds=thresholds, reader=read_mesh,
+                             name=display(path)), debug)

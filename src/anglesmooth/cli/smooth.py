@@ -15,6 +15,7 @@ from ..smoothers._fast import active as fast_active
 from ..smoothers._fast import kernel_mode
 from ..topology import build_topology
 from .errors import EXIT_GATE, handle_errors
+from .many import jobs_option, scheduler_option, smooth_many, wants_many
 from .meshfiles import STDIO, check_paths, display, extra_fixed, read_fix_nodes, read_mesh, write_mesh
 from .options import (debug_option, gate_options, input_format_option, json_option, no_guard_option, order_option,
                       quiet_option)
@@ -25,6 +26,7 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
 @click.command("smooth")
 @click.argument("input", metavar="INPUT")
 @click.argument("output", metavar="[OUTPUT]", required=False)
+@click.argument("more", nargs=-1, metavar="[INPUT]...")
 @click.option("--method", "-m", type=click.Choice(list(SMOOTHERS)), default="angle", show_default=True,
               help="Smoothing method (from the registry).")
 @click.option("--passes", "-n", type=click.IntRange(min=0), default=10, show_default=True, help="Maximum passes.")
@@ -39,6 +41,11 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
 @click.option("--in-place", is_flag=True, help="Overwrite INPUT (give no OUTPUT).")
 @input_format_option
 @click.option("--output-format", metavar="FORMAT", help="meshio format of OUTPUT (needed for '-').")
+@click.option("--output-dir", type=click.Path(file_okay=False), metavar="DIR",
+              help="Several INPUTs (files, directories, globs): write each result to DIR under its own name.")
+@click.option("--suffix", default="", metavar="SUFFIX", help="Several INPUTs: add SUFFIX to each output's stem.")
+@jobs_option
+@scheduler_option
 @gate_options
 @json_option
 @click.option("--plot", type=click.Path(dir_okay=False), metavar="PNG",
@@ -48,10 +55,25 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
 @quiet_option
 @debug_option
 @handle_errors
-def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, fix_nodes, force, in_place,
-               input_format, output_format, json_path, plot, progress, quiet, debug, **gate_opts) -> None:
-    """Smooth INPUT and write OUTPUT ('-' for stdin/stdout); gates apply to the result, after writing it."""
+def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_group, fix_nodes, force, in_place,
+               input_format, output_format, output_dir, suffix, jobs, scheduler, json_path, plot, progress, quiet, debug,
+               **gate_opts) -> None:
+    """Smooth INPUT and write OUTPUT ('-' for stdin/stdout); gates apply to the result, after writing it.
+
+    Several INPUTs (files, directories, globs) with --output-dir DIR, --suffix or --in-place smooth each
+    file (--jobs N in parallel processes, --scheduler on a Dask cluster) and end with a summary table.
+    """
     console = make_console(quiet)
+    if wants_many(input, output, more, output_dir=output_dir, suffix=suffix, jobs=jobs, scheduler=scheduler,
+                  in_place=in_place):
+        thresholds, exit_zero = gate_thresholds(gate_opts)
+        kernel_mode()
+        return smooth_many(console, [input, output, *more], output_dir=output_dir, suffix=suffix,
+                           output_format=output_format, in_place=in_place, jobs=jobs, scheduler=scheduler,
+                           json_path=json_path, thresholds=thresholds, exit_zero=exit_zero, progress=progress,
+                           debug=debug, fix_nodes=read_fix_nodes(fix_nodes) if fix_nodes else None, plot=plot,
+                           method=method, passes=passes, tol=tol, guard=not no_guard, order=order,
+                           fix_groups=fix_group, input_format=input_format)
     output = check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
                          output_format=output_format, json_path=json_path)
     thresholds, exit_zero = gate_thresholds(gate_opts)
