@@ -173,8 +173,9 @@ def expand(paths: Iterable[str], exclude: Sequence[str] = ()) -> list[tuple[str,
 
     A directory is walked for files with a suffix in :data:`MESH_SUFFIXES`
     (sorted, hidden files and directories skipped); a pattern that names no
-    existing file is expanded like a shell glob (``**`` included); other paths
-    are kept as they are (a missing file then fails as its own task).  A path
+    existing file is expanded like a shell glob (``**`` included; no match
+    keeps the pattern); other paths are kept as they are (a missing file then
+    fails as its own task).  A path
     that matches one of the ``exclude`` globs (a name such as ``*.vtk``, a
     trailing part such as ``build/*``, or the whole path) is left out.
     Repeated paths are kept once.
@@ -184,8 +185,11 @@ def expand(paths: Iterable[str], exclude: Sequence[str] = ()) -> list[tuple[str,
         if p != "-" and os.path.isdir(p):
             out += _walk(p)
         elif p != "-" and not os.path.exists(p) and glob.has_magic(p):
-            for match in sorted(glob.glob(p, recursive=True)):
+            matches = sorted(glob.glob(p, recursive=True))
+            for match in matches:
                 out += _walk(match) if os.path.isdir(match) else [(match, os.path.basename(match))]
+            if not matches:  # as a shell does: the pattern itself, which then is no such file
+                out.append((p, os.path.basename(p)))
         else:
             out.append((p, os.path.basename(p)))
     seen: set[str] = set()
@@ -237,6 +241,17 @@ def plan_outputs(inputs: Sequence[str], outputs: Sequence[str], in_place: bool) 
                              "(use --in-place to rewrite the inputs, or another --output-dir / --suffix)")
 
 
+def make_dirs(directories: Iterable[str]) -> None:
+    """Create the output directories (and their parents) that do not exist yet."""
+    from .errors import MeshWriteError
+
+    for directory in sorted(set(map(str, directories))):
+        try:
+            Path(directory).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise MeshWriteError(f"cannot create the output directory '{directory}': {exc.strerror or exc}") from None
+
+
 # -------------------------------------------------------------------------------------------------- tasks
 
 
@@ -286,7 +301,7 @@ class _Task:
     def failed(self, exc: BaseException, elapsed: float, tb: str | None = None) -> FileResult:
         code, message = _failure(exc)
         for where, given in self._renames():  # a cluster gets absolute paths: report the names given
-            if where != given and where == os.path.abspath(given):
+            if where != given and os.path.isabs(where):
                 message = message.replace(where, given)
         return FileResult(self.name, self._output_name(), error=message, exit_code=code, elapsed_s=elapsed,
                           traceback=tb)
@@ -561,7 +576,7 @@ def smooth_files(
 
     The outputs are ``outputs`` (one per path), or each input rewritten
     (``in_place``), or :func:`output_name` of each path (``output_dir``,
-    ``suffix``, ``extension``).  Two inputs with one output, or an output
+    created if missing, ``suffix``, ``extension``).  Two inputs with one output, or an output
     over an input (unless ``in_place``), raise :class:`BatchError` before any
     work.  The smoothing arguments are those of :func:`anglesmooth.smooth`;
     ``thresholds`` are gates (see :mod:`anglesmooth.gates`) on each result.
@@ -578,6 +593,8 @@ def smooth_files(
     if len(outputs) != len(paths):
         raise BatchError(f"{len(paths)} inputs but {len(outputs)} outputs")
     plan_outputs(paths, outputs, in_place)
+    if output_dir is not None:
+        make_dirs([output_dir])
     nodes = None if fix_nodes is None else tuple(int(i) for i in fix_nodes)
     tasks = [_SmoothTask(p, _where(p, client), input_format, dict(thresholds or {}), output=_where(o, client),
                          output_display=o, output_format=output_format, method=method, passes=passes, tol=tol,

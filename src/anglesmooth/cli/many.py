@@ -180,11 +180,6 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
         if os.path.realpath(json_path) in {os.path.realpath(o) for o in outputs + paths}:
             raise Usage(f"--json '{json_path}' is one of the mesh files")
         check_writable(json_path, "cannot write JSON report")
-    for directory in sorted({str(Path(o).parent) for o in outputs}):
-        try:
-            Path(directory).mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise AngleSmoothError(f"cannot create the output directory '{directory}': {exc.strerror or exc}") from None
     n = len(paths)
 
     def on_result(i: int, r: batch.FileResult) -> None:
@@ -201,6 +196,7 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
 
     t0 = time.perf_counter()
     with executor(scheduler, jobs) as client:
+        batch.make_dirs(str(Path(o).parent) for o in outputs)  # once everything else is known to work
         results = batch.smooth_files(paths, outputs, in_place=in_place, output_format=output_format,
                                      thresholds=thresholds, fix_nodes=fix_nodes, jobs=jobs, client=client,
                                      on_result=on_result, **options)
