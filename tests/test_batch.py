@@ -384,3 +384,23 @@ def test_check_jobs_2_output_is_identical(work, monkeypatch):
     assert len(error_lines(one.stderr)) == 2
     results = check_files(find_mesh_files(["in"]), thresholds={"min_angle": 15}, jobs=2)
     assert timeless(results) == timeless(check_files(find_mesh_files(["in"]), thresholds={"min_angle": 15}))
+
+
+# ------------------------------------------------------------------------------ the benchmark
+
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_batch.py"
+
+
+@pytest.mark.skipif(not BENCH.exists(), reason="benchmarks/ not shipped")
+def test_bench_batch_tiny(tmp_path):
+    out = tmp_path / "bench.json"
+    res = subprocess.run([sys.executable, str(BENCH), "--tiny", "--json", str(out)], capture_output=True, text=True,
+                         env=ENV, cwd=tmp_path, timeout=600)
+    assert res.returncode == 0, res.stderr
+    rows = json.loads(out.read_text())["rows"]
+    ways = [r["way"] for r in rows]
+    assert len(rows) == 8 and {w[:3] for w in ways} == {"(a)", "(b)", "(c)", "(d)"}
+    assert all(r["identical"] and r["files_per_s"] > 0 for r in rows)  # every way wrote the same files
+    assert "| meshes | way | wall (s) | files/s |" in res.stdout
+    assert sorted(os.listdir(tmp_path)) == ["bench.json"]  # meshes went to a temporary directory
