@@ -473,8 +473,9 @@ def _run_pool(tasks: Sequence[_Task], jobs: int, collect: _InOrder) -> None:
             i = futures[future]
             try:
                 result = future.result()
-            except cf.process.BrokenProcessPool as exc:
-                result = tasks[i].failed(OSError(f"a worker process died ({exc}); out of memory?"), 0.0)
+            except cf.process.BrokenProcessPool:
+                result = tasks[i].failed(AngleSmoothError("a worker process died (killed, or out of memory) "
+                                                          "before this file was done"), 0.0)
             except Exception as exc:
                 result = tasks[i].failed(exc, 0.0)
             collect.add(i, result)
