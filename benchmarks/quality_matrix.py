@@ -32,14 +32,16 @@ verdict section judges the default ``angle`` per family (every seed must satisfy
 
 Shown beside it but not part of PASS/FAIL: the same comparisons on the extreme angles (min angle
 >= max(laplacian, literal), max angle <= laplacian's), issue 12's "Done means" thresholds on the
-min angle averaged over seeds (paper-tri 24, paper-mixed 25, graded 18 degrees), and Table 5's
-error against the literal rule's (quad meshes).
+min angle averaged over seeds (paper-tri 24, paper-mixed 25, graded 18 degrees), Table 5's
+error against the literal rule's (quad meshes), and the time of a default pass over a literal
+pass (median over seeds of the per-seed ratio; same run, but timings on a shared machine are noisy).
 
 Usage::
 
     PYTHONPATH=src python benchmarks/quality_matrix.py                       # everything, 3 seeds, 10 passes
     PYTHONPATH=src python benchmarks/quality_matrix.py --families quad-distorted-toothed,paper-tri \\
         --methods angle,laplacian --seeds 2 --markdown m.md --json m.json
+    PYTHONPATH=src python benchmarks/quality_matrix.py --compare benchmarks/results/quality_matrix_before.json
     PYTHONPATH=src python benchmarks/quality_matrix.py --tiny                # seconds; what the test runs
 
 No number is asserted anywhere: the benchmark prints and judges, tests only check it runs.
@@ -240,6 +242,9 @@ def verdict(family, per_seed: dict[str, list[dict]]) -> dict:
     if lit and all(a[i].get("l2_f1") is not None for i in range(n)):
         check("L2 f1 ≤ literal", [a[i]["l2_f1"] <= lit[i]["l2_f1"] * (1 + 1e-12) for i in range(n)],
               [f"{a[i]['l2_f1']:.4g} vs {lit[i]['l2_f1']:.4g}" for i in range(n)])
+    if lit and all(a[i].get("s_per_pass") and lit[i].get("s_per_pass") for i in range(n)):
+        ratio = statistics.median(a[i]["s_per_pass"] / lit[i]["s_per_pass"] for i in range(n))
+        checks["pass ≤ 2× literal"] = {"ok": ratio <= 2.0, "seeds_ok": None, "seeds": n, "detail": [f"{ratio:.1f}×"]}
     info = dict(checks)
     return {"result": "PASS" if all(c["ok"] for c in verdict_checks.values()) else "FAIL",
             "checks": verdict_checks, "info": info}
@@ -294,6 +299,38 @@ def markdown(result: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+COMPARE = (("min°", "min_angle", ".1f"), ("max°", "max_angle", ".1f"), ("mean min°", "mean_min_angle", ".2f"),
+           ("mean max°", "mean_max_angle", ".2f"), ("area ratio", "area_ratio", ".3g"), ("L2 f1", "l2_f1", ".4g"),
+           ("ms/pass", "s_per_pass", ".3g"))
+
+
+def compare(result: dict, before: dict, method: str = "angle") -> str:
+    """A markdown table: ``method``'s medians over seeds in ``before`` (a JSON of this script) and now, per family."""
+    lines = [f"`{method}` before → after (medians over seeds; before: {before['config'].get('anglesmooth', '?')}, "
+             f"seeds {before['config'].get('seeds')}, {before['config'].get('passes')} passes):", "",
+             "| family | verdict | " + " | ".join(c[0] for c in COMPARE) + " |", "|---|---|" + "---:|" * len(COMPARE)]
+
+    def med(fres, key):
+        agg = fres["aggregate"].get(method, {}).get(key)
+        if agg is None:
+            return None
+        v = agg["median"]
+        return math.inf if v == "inf" else v
+
+    for fam, now in result["families"].items():
+        old = before["families"].get(fam)
+        if old is None or method not in now["aggregate"] or method not in old["aggregate"]:
+            continue
+        cells = []
+        for _, key, spec in COMPARE:
+            scale = 1000.0 if key == "s_per_pass" else 1.0
+            a, b = med(old, key), med(now, key)
+            cells.append("—" if a is None or b is None else f"{_fmt(a * scale, spec)} → {_fmt(b * scale, spec)}")
+        v = f"{old['verdict']['result']} → {now['verdict']['result']}"
+        lines.append(f"| {fam} | {v} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def _json_safe(o):
     if isinstance(o, float) and not math.isfinite(o):
         return None if math.isnan(o) else ("inf" if o > 0 else "-inf")
@@ -317,6 +354,8 @@ def parse_args(argv=None):
                    help="directory of cached generated meshes (default: the system temp dir)")
     p.add_argument("--json", type=Path)
     p.add_argument("--markdown", type=Path)
+    p.add_argument("--compare", type=Path, metavar="BEFORE_JSON",
+                   help="also print the default's medians before (a --json of an earlier run) and now")
     p.add_argument("--tiny", action="store_true", help="coarse meshes, 1 seed, 2 passes (seconds; for the tests)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     return p.parse_args(argv)
@@ -390,6 +429,8 @@ def main(argv=None) -> int:
         log(f"{name:24s} {info:34s} {time.perf_counter() - t0:6.1f} s  {result['families'][name]['verdict']['result']}")
     result["elapsed_s"] = time.perf_counter() - t_all
     md = markdown(result)
+    if args.compare:
+        md += "\n" + compare(result, json.loads(args.compare.read_text()))
     sys.stdout.write(md)
     if args.markdown:
         args.markdown.write_text(md)

@@ -112,3 +112,12 @@ def test_quality_matrix_tiny(tmp_path):
         kind_quads = f["meshes"][0]["quads"] > 0 and f["meshes"][0]["triangles"] == 0
         assert (f["per_seed"]["angle"][0]["l2_f1"] is not None) == (kind_quads or f["kind"] == "quad"), fam
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cache", "matrix.json", "matrix.md"]
+    # --compare: the same (deterministic) family against the first run's JSON shows equal medians
+    res2 = subprocess.run([*cmd[:6], "--families", "paper-tri", "--methods", "angle,laplacian,literal",
+                           "--compare", str(out)], capture_output=True, text=True, env=env, cwd=tmp_path, timeout=600)
+    assert res2.returncode == 0, res2.stderr
+    line = next(x for x in res2.stdout.splitlines() if x.startswith("| paper-tri | FAIL → ") or x.startswith("| paper-tri | PASS → "))
+    cells = [c.strip() for c in line.split("|")[1:-1]]
+    before, after = cells[2].split(" → ")  # min angle: identical meshes and methods give identical results
+    assert float(before) == float(after)
+    assert "paper-mixed" not in res2.stdout
