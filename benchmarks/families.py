@@ -1,6 +1,7 @@
 """Mesh families for the quality matrix (``quality_matrix.py``), made the way users get them.
 
-Each family builds one mesh per seed, deterministically: gmsh (through its Python API, into a
+Each family builds one mesh per seed, deterministically (except ``boundary-layer``: gmsh's 2D
+BoundaryLayer meshing differs by a node or two from call to call; the cache makes reruns equal): gmsh (through its Python API, into a
 temporary directory, read back with :func:`anglesmooth.read`) or :mod:`anglesmooth.generate`,
 then, for the ``*-jitter`` / ``*-distorted`` families, every free node moved by a random offset
 (uniform in a disc whose radius is a fraction of the node's mean incident edge length; fixed
@@ -20,8 +21,8 @@ Families (``FAMILIES``; sizes at full size, ``tiny=True`` gives coarse versions 
   mesh, where the default got trapped (7 / 173 degrees) while Laplacian reached 41.5 / 144.
 * ``quad-jitter-toothed``: the same without the squashing (jitter only).
 * ``tri-distorted-toothed``: the same part in triangles (~14k), jittered likewise.
-* ``quad-recombined-jitter``: an L-shaped plate with three holes, recombined quads (~2k nodes),
-  jitter 0.25.
+* ``quad-recombined-jitter``: an L-shaped plate with three holes, Blossom-recombined quads
+  (~1.2k nodes), jitter 0.25.
 * ``tri-curved``: an elliptic plate with three holes, triangles graded by a distance/threshold
   size field (fine at the holes), jitter 0.25.
 * ``mixed-two-region``: a rectangle in two regions (physical groups), triangles left and
@@ -31,8 +32,8 @@ Families (``FAMILIES``; sizes at full size, ``tiny=True`` gives coarse versions 
   (thin quads around the cylinder, triangles elsewhere); jitter 0.1 of the nodes outside the layer.
 * ``paper-tri``, ``paper-mixed``, ``paper-quad``: the paper-style meshes of
   ``benchmarks/paper/paper_experiments.py`` (``MESHES``), used as they are (no jitter).
-* ``good-tri``, ``good-quad``: gmsh meshes of the elliptic plate with holes, uniform size,
-  not jittered (already good: smoothing must not make them worse).
+* ``good-tri``, ``good-quad``: gmsh meshes of the elliptic plate with holes, uniform size
+  (quads: "simple full-quad" recombination), not jittered (already good: smoothing must not make them worse).
 """
 
 from __future__ import annotations
