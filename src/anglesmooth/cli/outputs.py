@@ -29,11 +29,18 @@ def make_console(quiet: bool) -> Console:
     return Console(stderr=True, quiet=quiet, highlight=False, width=wide)
 
 
-def gate_thresholds(gate_opts: dict) -> tuple[dict, bool]:
+#: ``click.Context.meta`` key of the gate thresholds of a configuration file (set by ``main``).
+CONFIG_GATES = "anglesmooth.config_gates"
+
+
+def gate_thresholds(gate_opts: dict, safe: bool = False) -> tuple[dict, bool]:
+    """Thresholds from the configuration file, the gate file and the options (in that order, the last wins)."""
     exit_zero = gate_opts.pop("exit_zero", False)
     gate_file = gate_opts.pop("gate_file", None)
+    ctx = click.get_current_context(silent=True)
+    base = ctx.meta.get(CONFIG_GATES) if ctx is not None else None
     try:
-        return resolve_thresholds(gate_opts, gate_file), exit_zero
+        return resolve_thresholds(gate_opts, gate_file, base=base, safe=safe), exit_zero
     except GateFileError as exc:
         raise Usage(str(exc)) from None
 
