@@ -11,6 +11,7 @@ from ..__about__ import __version__
 from .check import check_cmd
 from .compare import compare_cmd
 from .errors import on_sigterm
+from .schema import schema_cmd
 from .smooth import smooth_cmd
 
 
@@ -38,6 +39,7 @@ def cli() -> None:
     anglesmooth INPUT OUTPUT [OPTIONS]     smooth a mesh (same as 'anglesmooth smooth ...')
     anglesmooth check INPUT... [GATES]     report quality, gate CI on it
     anglesmooth compare INPUT              run every method, paper-style table
+    anglesmooth schema DOCUMENT            JSON Schema of a --json report
 
     Exit codes: 0 ok, 1 a quality gate failed, 2 usage error, 3 bad input or
     unwritable output, 4 internal error, 130 interrupted, 143 terminated.
@@ -45,7 +47,7 @@ def cli() -> None:
     """
 
 
-for _command in (smooth_cmd, check_cmd, compare_cmd):
+for _command in (smooth_cmd, check_cmd, compare_cmd, schema_cmd):
     cli.add_command(_command)
 
 
