@@ -6,6 +6,7 @@ import contextlib
 import os
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import click
@@ -21,6 +22,9 @@ from .meshfiles import STDIO
 
 #: Cells above which the progress bar is shown by default (when stderr is a terminal).
 PROGRESS_MIN_CELLS = 50_000
+
+#: Seconds between the plain progress lines printed instead of the bar when stderr is not a terminal (CI logs).
+PROGRESS_EVERY_S = 5.0
 
 
 def make_console(quiet: bool) -> Console:
@@ -104,6 +108,9 @@ def progress_bar(console: Console, total: int, n_cells: int, wanted: bool | None
     if not (wanted or auto) or console.quiet or total == 0:
         yield None
         return
+    if not console.is_terminal:  # a CI log: a transient bar would never show; a plain line now and then
+        yield _progress_lines(console, total, n_cells, compiled)
+        return
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
@@ -116,3 +123,19 @@ def progress_bar(console: Console, total: int, n_cells: int, wanted: bool | None
             bar.update(task, completed=k, description=f"smoothing (displacement {displacement:.2e})")
 
         yield callback
+
+
+def _progress_lines(console: Console, total: int, n_cells: int, compiled: bool):
+    """A pass callback printing one plain line at most every :data:`PROGRESS_EVERY_S` seconds, and at the last pass."""
+    start = last = time.monotonic()
+    note = " (the first pass loads the compiled kernels; the first run ever compiles them)" if compiled else ""
+    plain(console, f"smoothing: up to {total} passes over {n_cells} cells{note}")
+
+    def callback(k, points, displacement):
+        nonlocal last
+        now = time.monotonic()
+        if now - last >= PROGRESS_EVERY_S or k == total:
+            last = now
+            plain(console, f"smoothing: pass {k}/{total}, displacement {displacement:.2e}, {now - start:.1f} s")
+
+    return callback
