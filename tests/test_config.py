@@ -203,3 +203,12 @@ def test_bad_config_is_a_usage_error_on_every_command(project, mesh, tmp_path, t
     assert not (tmp_path / "o.vtu").exists()
     assert run("check", mesh, "--no-config").exit_code == 0  # the way out
     assert run("check", "--help").exit_code == 0  # help still works
+
+
+def test_no_configuration_in_a_removed_working_directory(tmp_path, monkeypatch, mesh):
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    monkeypatch.chdir(gone)
+    gone.rmdir()
+    assert find_config() is None
+    assert run("check", mesh).exit_code == 0

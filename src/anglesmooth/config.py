@@ -102,11 +102,17 @@ def _table(path: Path, data: dict) -> dict | None:
 
 def find_config(start: str | Path | None = None) -> Path | None:
     """The configuration file that applies in ``start`` (default: the working directory), or None."""
-    here = Path(start if start is not None else Path.cwd()).absolute()
+    try:
+        here = Path(start if start is not None else Path.cwd()).absolute()
+    except OSError:  # the working directory was removed
+        return None
     for directory in (here, *here.parents):
         for name in FILE_NAMES:
             candidate = directory / name
-            if not candidate.is_file():
+            try:
+                if not candidate.is_file():
+                    continue
+            except OSError:  # a directory that cannot be searched: no configuration there
                 continue
             if name == "anglesmooth.toml" or _table(candidate, _read_toml(candidate)) is not None:
                 return candidate
