@@ -174,6 +174,11 @@ def test_explicit_config_file(project, mesh, tmp_path):
     assert (doc["method"], doc["passes_requested"], doc["gates"]) == ("smart-laplacian", 2, [])
     doc = smooth_json(mesh, tmp_path, f"--config={other}", "-n", "3")
     assert doc["passes_requested"] == 3
+    # a pyproject-style file under another name
+    other.write_text('[project]\nname = "y"\n[tool.anglesmooth]\npasses = 4\n')
+    assert smooth_json(mesh, tmp_path, "--config", other)["passes_requested"] == 4
+    result = run("check", mesh, "--config", tmp_path / "missing.toml")
+    assert result.exit_code == 2 and "cannot read configuration" in one_error_line(result)
 
 
 def test_config_format_github(project, mesh):

@@ -90,10 +90,11 @@ def _read_toml(path: Path) -> dict:
 
 
 def _table(path: Path, data: dict) -> dict | None:
-    """The anglesmooth table of a parsed file: all of anglesmooth.toml, ``[tool.anglesmooth]`` of a pyproject."""
-    if path.name != "pyproject.toml":
-        return data
+    """The anglesmooth table of a parsed file: ``[tool.anglesmooth]`` of a pyproject, else the whole file (or its
+    ``[tool.anglesmooth]`` when it has one, e.g. a pyproject copied under another name for ``--config``)."""
     tool = data.get("tool")
+    if path.name != "pyproject.toml" and not (isinstance(tool, dict) and "anglesmooth" in tool):
+        return data
     table = tool.get("anglesmooth") if isinstance(tool, dict) else None
     if table is not None and not isinstance(table, dict):
         raise ConfigFileError(f"configuration '{path}': tool.anglesmooth must be a table")
