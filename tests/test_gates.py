@@ -110,3 +110,8 @@ def test_bad_gate_files(tmp_path, text, needle):
 def test_missing_gate_file(tmp_path):
     with pytest.raises(AngleSmoothError, match="cannot read gate file"):
         load_gate_file(tmp_path / "nope.toml")
+
+
+def test_message_of_a_passed_gate_says_so():
+    (g,) = evaluate(SUMMARY, {"min_angle": 10})
+    assert g.message("a.msh") == "a.msh: gate min_angle passed: 12.3° >= 10°"

@@ -106,7 +106,7 @@ class Gate:
 
     def message(self, file: str) -> str:
         """One line describing a failed gate, e.g. ``a.msh: gate min_angle failed: 12.3° < 20° (worst cell 17)``."""
-        return f"{file}: gate {self.name} failed: {self.comparison()}{self.where()}"
+        return f"{file}: gate {self.name} {'passed' if self.passed else 'failed'}: {self.comparison()}{self.where()}"
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form; a non-finite value becomes None."""
