@@ -336,8 +336,9 @@ class _CheckTask(_Task):
         from .topology import build_cell_topology
 
         mesh = (self.reader or _read)(self.path, self.input_format)
-        summary = summarize(mesh.points, build_cell_topology(mesh))  # no smoothing tables needed
-        gates = evaluate(summary, self.thresholds)
+        topo = build_cell_topology(mesh)  # no smoothing tables needed
+        summary = summarize(mesh.points, topo)
+        gates = evaluate(summary, self.thresholds, mesh.points, topo)
         return FileResult(self.name, None, report=summary, gates=[g.to_dict() for g in gates],
                           passed=all(g.passed for g in gates),
                           exit_code=0 if all(g.passed for g in gates) else 1,
@@ -380,7 +381,7 @@ class _SmoothTask(_Task):
         result = smooth(mesh, self.method, self.passes, tol=self.tol, guard=self.guard, order=self.order,
                         topology=topo)
         after = summarize(result.points, topo)
-        gates = evaluate(after, self.thresholds)
+        gates = evaluate(after, self.thresholds, result.points, topo)
         passed = all(g.passed for g in gates)
         document = report.smooth_json(
             input=self.name, output=self.output_display, method=self.method, guard=self.guard, order=self.order,

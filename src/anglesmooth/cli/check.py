@@ -8,9 +8,10 @@ import click
 
 from .. import report
 from ..batch import FileResult, check_file, check_files
+from . import formats
 from .errors import Usage, error, handle_errors
 from .many import exclude_option, executor, expand_inputs, jobs_option, scheduler_option, worst_exit
-from .meshfiles import STDIO, display, read_mesh
+from .meshfiles import STDIO, check_writable, display, read_mesh
 from .options import debug_option, gate_options, input_format_option, json_option, quiet_option
 from .outputs import emit_json, gate_thresholds, make_console, plain
 
@@ -23,48 +24,52 @@ from .outputs import emit_json, gate_thresholds, make_console, plain
 @jobs_option
 @scheduler_option
 @json_option
+@formats.format_option
+@formats.junit_option
 @quiet_option
 @debug_option
 @handle_errors
-def check_cmd(inputs, input_format, exclude, jobs, scheduler, json_path, quiet, debug, **gate_opts) -> None:
+def check_cmd(inputs, input_format, exclude, jobs, scheduler, json_path, report_format, junit_path, quiet, debug,
+              **gate_opts) -> None:
     """Report the quality of meshes without changing them.
 
     An INPUT may be a directory (searched for mesh files by suffix) or a glob.
     Exit 0 when every file passes every gate, 1 when a gate fails, 3 when a file
-    cannot be read (the others are still checked; 3 wins over 1).
+    cannot be read (the others are still checked; 3 wins over 1).  A file with
+    inverted or degenerate cells fails even without thresholds (--max-inverted N
+    and --max-degenerate N relax it).
     """
     console = make_console(quiet)
-    thresholds, exit_zero = gate_thresholds(gate_opts)
+    thresholds, exit_zero = gate_thresholds(gate_opts, safe=True)
+    formats.check_junit_path(junit_path)
+    if junit_path is not None:
+        check_writable(junit_path, "cannot write JUnit XML")
     paths = [p for p, _ in expand_inputs(inputs, exclude)]
-    if not paths:
-        plain(console, "no files to check: every file matches --exclude")
-        emit_json(json_path, report.check_json([], True))
-        return
     if STDIO in paths and (jobs != 1 or scheduler):
         raise Usage("'-' (stdin) cannot be checked with --jobs or --scheduler")
-    entries, failures = [], []
-
-    def on_result(i, result):
-        entry, lines = _entry(result, debug)
-        entries.append(entry)
-        failures.extend(lines)
-
+    entries = []
     with executor(scheduler, jobs) as client:
         results = check_files(paths, input_format=input_format, thresholds=thresholds, jobs=jobs, client=client,
-                              on_result=on_result, names=[display(p) for p in paths],
-                              reader=read_mesh if STDIO in paths else None)
-    if len(entries) == 1 and entries[0]["report"] is not None:
+                              on_result=lambda i, r: entries.append(_entry(r, debug)[0]),
+                              names=[display(p) for p in paths], reader=read_mesh if STDIO in paths else None)
+    if not paths:
+        plain(console, "no files to check: every file matches --exclude")
+    elif len(entries) == 1 and entries[0]["report"] is not None:
         console.print(report.check_table(entries[0]["report"], title=display(paths[0])))
     elif len(entries) > 1:
         console.print(report.files_table(entries, with_gates=bool(thresholds)))
-    for line in failures:
-        click.echo(line, err=True)
-    for e in entries:
-        if e["report"] is not None and e["passed"] and thresholds:
-            plain(console, f"{e['input']}: all {len(e['gates'])} gates passed")
+    outcomes = [formats.outcome(e) for e in entries]
+    formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=json_path == STDIO)
     errors = any(e["error"] for e in entries)
     passed = not errors and all(e["passed"] for e in entries)
-    emit_json(json_path, report.check_json(entries, passed))
+    staged = formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth check")) if junit_path else None
+    try:
+        emit_json(json_path, report.check_json(entries, passed))
+    except BaseException:
+        if staged is not None:
+            staged.unlink(missing_ok=True)
+        raise
+    formats.commit(staged, junit_path)
     code = worst_exit(results, exit_zero)
     if code:
         raise click.exceptions.Exit(code)

@@ -22,6 +22,8 @@ from rich.table import Table
 
 from .. import batch, report
 from ..errors import AngleSmoothError
+from ..gates import Gate
+from . import formats
 from .errors import EXIT_GATE, Usage, error
 from .meshfiles import STDIO, _suffix, check_writable
 from .outputs import emit_json, plain, warn_invalid
@@ -162,13 +164,20 @@ def worst_exit(results, exit_zero: bool) -> int:
     return max(codes, default=0)
 
 
+def _outcome(r: batch.FileResult) -> formats.Outcome:
+    return formats.Outcome(r.input if r.error is not None else r.output, [Gate(**g) for g in r.gates], r.error)
+
+
 def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place, jobs, scheduler, json_path,
-                thresholds, exit_zero, progress, debug, fix_nodes, plot, **options) -> None:
+                report_format, junit_path, thresholds, exit_zero, progress, debug, fix_nodes, plot, **options) -> None:
     """``anglesmooth smooth A B C ... --output-dir DIR | --suffix S | --in-place``."""
     if STDIO in inputs:
         raise Usage("'-' (stdin / stdout) works with one file only")
     if plot:
         raise Usage("--plot draws one file; give one INPUT and OUTPUT")
+    formats.check_junit_path(junit_path)
+    if junit_path is not None:
+        check_writable(junit_path, "cannot write JUnit XML")
     found = expand_inputs(inputs)
     outputs = _outputs(found, output_dir=output_dir, suffix=suffix, output_format=output_format, in_place=in_place)
     paths = [p for p, _ in found]
@@ -191,8 +200,8 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
         warn_invalid(console, r.input, r.report["before"])
         if progress is not False:
             plain(console, _progress_line(i, n, r))
-        for line in r.messages:
-            click.echo(line, err=True)
+        if report_format == "table":  # other formats report every file at the end
+            formats.report(report_format, [_outcome(r)], lambda text: plain(console, text))
 
     t0 = time.perf_counter()
     with executor(scheduler, jobs) as client:
@@ -202,7 +211,11 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
                                      on_result=on_result, **options)
     elapsed = time.perf_counter() - t0
     console.print(summary_table(results, bool(thresholds), elapsed))
+    outcomes = [_outcome(r) for r in results]
+    if report_format != "table":
+        formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=json_path == STDIO)
     emit_json(json_path, files_json(results, elapsed))
+    formats.write_junit(junit_path, outcomes, "anglesmooth smooth")
     code = worst_exit(results, exit_zero)
     if code:
         raise click.exceptions.Exit(code)
