@@ -197,6 +197,14 @@ def test_a_bad_file_among_good_ones(work, single, monkeypatch):
     assert doc["files"][0]["output"] == "out/a.msh" and doc["files"][0]["after"]["min_angle"] > 20
     assert doc["summary"] == {**doc["summary"], "files": 4, "smoothed": 2, "failed": 2, "gates_passed": 2}
     assert doc["passed"] is False
+    import jsonschema
+
+    from anglesmooth.cli.schema import load_schema
+
+    jsonschema.Draft202012Validator(load_schema("smooth-files")).validate(doc)
+    for broken in ({**doc, "files": [{"input": "x"}]}, {k: v for k, v in doc.items() if k != "summary"}):
+        with pytest.raises(jsonschema.ValidationError):
+            jsonschema.Draft202012Validator(load_schema("smooth-files")).validate(broken)
 
 
 def test_exit_code_is_the_worst(work, monkeypatch):

@@ -1,4 +1,4 @@
-"""``anglesmooth schema {smooth,check,compare}``: print the JSON Schema (draft 2020-12) of a ``--json`` report.
+"""``anglesmooth schema {smooth,smooth-files,check,compare}``: print the JSON Schema (draft 2020-12) of a ``--json`` report.
 
 The schema files ship in the package (``anglesmooth/schemas/*.schema.json``); ``schema_version`` in every
 document is the contract they describe: keys may be added within a version, removing or changing one bumps it.
@@ -14,7 +14,7 @@ import click
 from .errors import handle_errors
 
 #: Documents with a schema: the command that writes them -> file name in ``anglesmooth/schemas``.
-SCHEMAS = {name: f"{name}.schema.json" for name in ("smooth", "check", "compare")}
+SCHEMAS = {name: f"{name}.schema.json" for name in ("smooth", "smooth-files", "check", "compare")}
 
 
 def load_schema(name: str) -> dict:
@@ -28,5 +28,8 @@ def load_schema(name: str) -> dict:
 @click.option("--debug", is_flag=True, help="Show the traceback of an error.")
 @handle_errors
 def schema_cmd(document: str, debug: bool) -> None:
-    """Print the JSON Schema (draft 2020-12) of the JSON report of DOCUMENT ('smooth', 'check' or 'compare')."""
+    """Print the JSON Schema (draft 2020-12) of the JSON report of DOCUMENT.
+
+    'smooth' (one file), 'smooth-files' (several INPUTs), 'check' or 'compare'.
+    """
     click.echo(json.dumps(load_schema(document), indent=2, ensure_ascii=False))
