@@ -219,6 +219,23 @@ def test_exit_code_is_the_worst(work, monkeypatch):
     assert run("in/a.msh", "in/b.vtu", "--output-dir", "o4", "--min-angle", "1", "-q").exit_code == 0
 
 
+def test_ci_formats_report_every_file(work, monkeypatch):
+    import xml.etree.ElementTree as ET
+
+    monkeypatch.chdir(work)
+    result = run("in/a.msh", "in/bad.vtu", "in/b.vtu", "--output-dir", "o", "--min-angle", "89", "--format", "github",
+                 "--junit-xml", "j.xml", "--jobs", "2")
+    assert result.exit_code == 3
+    lines = result.stdout.splitlines()
+    assert [line.split("::")[1] for line in lines] == [
+        "error file=o/a.msh,title=anglesmooth min_angle", "error file=in/bad.vtu,title=anglesmooth",
+        "error file=o/b.vtu,title=anglesmooth min_angle", "notice title=anglesmooth"]
+    assert "gate min_angle failed" not in result.stderr  # the github format replaces the plain lines
+    suite = ET.parse(work / "j.xml").getroot().find("testsuite")
+    assert suite.get("failures") == "2" and suite.get("errors") == "1"
+    assert {c.get("classname") for c in suite.iter("testcase")} == {"o/a.msh", "in/bad.vtu", "o/b.vtu"}
+
+
 def test_library_results(work, monkeypatch):
     monkeypatch.chdir(work)
     results = smooth_files(["in/a.msh", "in/bad.vtu"], output_dir="lib", passes=3, thresholds={"min_angle": 89})
