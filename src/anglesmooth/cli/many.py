@@ -20,7 +20,7 @@ from pathlib import Path
 import click
 from rich.table import Table
 
-from .. import batch, report
+from .. import batch, filesets, report
 from ..errors import AngleSmoothError
 from ..gates import Gate
 from . import formats
@@ -102,10 +102,10 @@ def expand_inputs(inputs, exclude=()) -> list[tuple[str, str]]:
 
     No file at all is a usage error; no file left after ``exclude`` is an empty list.
     """
-    found = batch.expand([i for i in inputs if i is not None], exclude)
-    if not found and not (exclude and batch.expand([i for i in inputs if i is not None])):
+    found = filesets.expand([i for i in inputs if i is not None], exclude)
+    if not found and not (exclude and filesets.expand([i for i in inputs if i is not None])):
         raise Usage("no mesh files found in " + ", ".join(f"'{i}'" for i in inputs if i is not None)
-                    + f" (suffixes searched: {' '.join(batch.MESH_SUFFIXES)})")
+                    + f" (suffixes searched: {' '.join(filesets.MESH_SUFFIXES)})")
     return found
 
 
@@ -120,7 +120,7 @@ def _outputs(found, *, output_dir, suffix, output_format, in_place) -> list[str]
         raise Usage("several INPUTs need --output-dir DIR, --suffix SUFFIX or --in-place "
                     "(two files alone mean INPUT OUTPUT)")
     ext = _suffix(output_format) if output_format else None
-    return [batch.output_name(p, output_dir=output_dir, suffix=suffix, extension=ext,
+    return [filesets.output_name(p, output_dir=output_dir, suffix=suffix, extension=ext,
                               relative=rel if output_dir is not None else None) for p, rel in found]
 
 
@@ -182,8 +182,8 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
     outputs = _outputs(found, output_dir=output_dir, suffix=suffix, output_format=output_format, in_place=in_place)
     paths = [p for p, _ in found]
     try:
-        batch.plan_outputs(paths, outputs, in_place)
-    except batch.BatchError as exc:
+        filesets.plan_outputs(paths, outputs, in_place)
+    except filesets.BatchError as exc:
         raise Usage(str(exc)) from None
     if json_path not in (None, STDIO):
         if os.path.realpath(json_path) in {os.path.realpath(o) for o in outputs + paths}:
@@ -205,7 +205,7 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
 
     t0 = time.perf_counter()
     with executor(scheduler, jobs) as client:
-        batch.make_dirs(str(Path(o).parent) for o in outputs)  # once everything else is known to work
+        filesets.make_dirs(str(Path(o).parent) for o in outputs)  # once everything else is known to work
         results = batch.smooth_files(paths, outputs, in_place=in_place, output_format=output_format,
                                      thresholds=thresholds, fix_nodes=fix_nodes, jobs=jobs, client=client,
                                      on_result=on_result, **options)
