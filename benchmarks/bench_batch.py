@@ -89,14 +89,19 @@ def _ways(indir: Path, work: Path, jobs: int, scheduler: str | None) -> dict:
 
 
 def run_set(name: str, count: int, cells: int, tmp: Path, jobs: int, scheduler: str | None, repeat: int,
-            seed0: int) -> list[dict]:
+            seed0: int, letters: list[str]) -> list[dict]:
     indir = tmp / name / "in"
     _make(indir, count, cells, seed0)
     from anglesmooth import read
 
     real_cells = statistics.median(read(p).n_cells for p in sorted(indir.iterdir())[:3])
     rows, reference = [], None
-    for way, (argv, out, shell) in _ways(indir, tmp / name, jobs, scheduler).items():
+    ways = _ways(indir, tmp / name, jobs, scheduler)
+    for letter in letters:
+        way = next((w for w in ways if w.startswith(f"({letter})")), None)
+        if way is None:
+            continue
+        argv, out, shell = ways[way]
         times = [_timed(argv, out, shell) for _ in range(repeat)]
         wall = statistics.median(times)
         tree = _tree(out)
@@ -104,10 +109,10 @@ def run_set(name: str, count: int, cells: int, tmp: Path, jobs: int, scheduler: 
         rows.append({"set": name, "files": count, "cells": int(real_cells), "way": way, "wall_s": wall,
                      "files_per_s": count / wall, "identical": tree == reference and len(tree) == count})
         print(f"  {name}: {way}: {wall:.2f} s", file=sys.stderr, flush=True)
-    base = next(r for r in rows if r["way"] == "(b) --jobs 1")["wall_s"]
+    base = next((r["wall_s"] for r in rows if r["way"] == "(b) --jobs 1"), None)
     for r in rows:
-        r["x_jobs1"] = r["wall_s"] / base
-    return rows
+        r["x_jobs1"] = r["wall_s"] / base if base else None
+    return sorted(rows, key=lambda r: r["way"])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -117,6 +122,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--jobs", type=int, default=0, help="N for (c) and (d); 0: the cores this process may use")
     ap.add_argument("--no-dask", action="store_true", help="skip (d)")
     ap.add_argument("--sets", metavar="NAMES", help="comma-separated subset (and order) of the sets, e.g. 60k")
+    ap.add_argument("--ways", metavar="LETTERS", default="a,b,c,d",
+                    help="which ways to run, in this order (e.g. b,c,d,a: the slow shell loop last)")
     ap.add_argument("--repeat", type=int, default=1, help="runs per way (median)")
     ap.add_argument("--json", metavar="PATH", help="also write the rows as JSON")
     args = ap.parse_args(argv)
@@ -149,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
         with tempfile.TemporaryDirectory(prefix="anglesmooth-bench-batch-") as tmp:
             for i, (name, count, cells) in enumerate(sets):
                 rows += run_set(name, count, cells, Path(tmp), jobs, cluster.scheduler_address if cluster else None,
-                                args.repeat, seed0=1000 * i)
+                                args.repeat, seed0=1000 * i, letters=args.ways.split(","))
     finally:
         if client is not None:
             client.close()
@@ -161,8 +168,9 @@ def main(argv: list[str] | None = None) -> int:
     print("| meshes | way | wall (s) | files/s | × `--jobs 1` | same files |")
     print("|---|---|---:|---:|---:|---|")
     for r in rows:
+        ratio = f"{r['x_jobs1']:.2f}" if r["x_jobs1"] is not None else "–"
         print(f"| {r['files']} × {r['cells']} cells | {r['way']} | {r['wall_s']:.2f} | {r['files_per_s']:.2f} | "
-              f"{r['x_jobs1']:.2f} | {'yes' if r['identical'] else 'NO'} |")
+              f"{ratio} | {'yes' if r['identical'] else 'NO'} |")
     if args.json:
         Path(args.json).write_text(json.dumps({"jobs": jobs, "cluster_start_s": cluster_s, "rows": rows}, indent=2))
     return 0 if all(r["identical"] for r in rows) else 1
