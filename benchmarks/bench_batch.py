@@ -147,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
         from distributed import Client, LocalCluster
 
         t0 = time.perf_counter()
-        cluster = LocalCluster(n_workers=jobs, processes=True, threads_per_worker=1, dashboard_address=None,
+        cluster = LocalCluster(n_workers=jobs, processes=True, threads_per_worker=1, dashboard_address=":0",
                                silence_logs=40)
         client = Client(cluster)
         cluster_s = time.perf_counter() - t0

@@ -329,7 +329,7 @@ def cluster():
     old = os.environ.get("PYTHONPATH")
     os.environ["PYTHONPATH"] = ENV["PYTHONPATH"]  # the worker processes import this worktree's src
     try:
-        with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None,
+        with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=":0",
                                       silence_logs=40) as lc, distributed.Client(lc) as client:
             yield client
     finally:
