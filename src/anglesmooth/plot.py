@@ -1,13 +1,29 @@
 """Plots (optional extra ``anglesmooth[plot]``): matplotlib is imported only when a plot is made.
 
 * :func:`plot_smooth` - the mesh before and after, every cell coloured by its
-  minimum angle, with histograms of the corner angles and of the cell minimum
-  angles.
+  minimum angle, the worst cells marked, a zoom on the worst cell (before and
+  after), and log-scale histograms of the cell minimum and maximum angles.
 * :func:`plot_compare` - minimum angle and area ratio per pass for each method
   (the paper's Figure 13).
+* :func:`worst_cells` - which cells the figure marks (pure numpy).
 
-Figures are built with ``matplotlib.figure.Figure`` (no pyplot, no global state,
-no display needed) and written atomically.
+Drawn so that the few bad cells of a large or graded mesh are found at a glance:
+
+* Cells are filled with ``tripcolor`` (quads split into two triangles along the
+  diagonal that keeps both halves valid), rasterized and without antialiasing
+  (no seams), which stays fast at a million cells.
+* Cell edges are drawn only where cells are at least :data:`EDGE_MIN_PX` pixels wide on
+  screen: none when the median cell is narrower (a 300k-cell mesh shows its colours, not
+  black noise), otherwise only between cells that wide, fading in up to
+  :data:`EDGE_FULL_PX` (a graded mesh shows the edges of its coarse part, and its
+  refined ring is not solid black).  The zoom panels show the edges.
+* The :data:`WORST_K` cells with the smallest minimum angle are circled, the
+  :data:`WORST_K` cells with the largest maximum angle marked with diamonds
+  (fixed-size markers, visible however small the cell).
+* Histogram counts are on a log scale, so one bad cell is one visible bar.
+
+Figures are built with ``matplotlib.figure.Figure`` on the Agg canvas (no
+pyplot, no global state, no display needed) and written atomically.
 """
 
 from __future__ import annotations
@@ -20,15 +36,37 @@ from pathlib import Path
 import numpy as np
 
 from .errors import AngleSmoothError
-from .quality import cell_min_angles, corner_angles
-from .topology import Topology
+from .quality import cell_areas, corner_angles
+from .topology import CellTopology
 
-__all__ = ["MISSING_MATPLOTLIB", "plot_compare", "plot_smooth", "require_matplotlib"]
+__all__ = [
+    "MISSING_MATPLOTLIB",
+    "compare_figure",
+    "draw_mesh",
+    "edge_alpha",
+    "edge_widths",
+    "plot_compare",
+    "plot_smooth",
+    "require_matplotlib",
+    "smooth_figure",
+    "worst_cells",
+    "zoom_window",
+]
 
 MISSING_MATPLOTLIB = "plotting needs matplotlib: pip install 'anglesmooth[plot]'"
 
-#: Above this many cells, cell edges are not drawn (they would only darken the picture).
-EDGE_LIMIT = 20_000
+DPI = 110
+#: Cells marked in each mesh panel: this many smallest minimum angles and largest maximum angles.
+WORST_K = 20
+#: An edge between cells narrower than this on screen (pixels; see :func:`edge_widths`) is not drawn ...
+EDGE_MIN_PX = 6.0
+#: ... and one at least this long is drawn at full strength (linear fade in between).
+EDGE_FULL_PX = 24.0
+#: Half-width of the zoom window in local cell sizes (median sqrt(area) of the cells around the worst one).
+ZOOM_HALF_CELLS = 6.0
+CMAP = "RdYlGn"
+MIN_COLOUR = "#1030ff"  # circles: smallest minimum angles
+MAX_COLOUR = "#c000c0"  # diamonds: largest maximum angles
 
 
 def require_matplotlib() -> None:
@@ -41,9 +79,12 @@ def require_matplotlib() -> None:
 
 def _figure(width: float, height: float):
     require_matplotlib()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    return Figure(figsize=(width, height), layout="constrained")
+    fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
 
 
 def _save(fig, path: str | Path) -> None:
@@ -57,7 +98,8 @@ def _save(fig, path: str | Path) -> None:
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)
         with os.fdopen(fd, "wb") as fh:
-            fig.savefig(fh, format="png", dpi=110)
+            # print_png rather than savefig: savefig draws twice when the figure has a layout engine
+            fig.canvas.print_png(fh)
         os.replace(tmp, path)
     except OSError as exc:
         raise AngleSmoothError(f"cannot write plot '{path}': {exc.strerror or exc}") from None
@@ -66,84 +108,424 @@ def _save(fig, path: str | Path) -> None:
             os.unlink(tmp)
 
 
-def _draw_mesh(ax, topo: Topology, points: np.ndarray, values: np.ndarray, norm, cmap):
-    from matplotlib.collections import PolyCollection
+# ---------------------------------------------------------------- pure helpers
 
-    lw = 0.3 if topo.n_tri + topo.n_quad <= EDGE_LIMIT else 0.0
+
+def _smallest(values: np.ndarray, k: int) -> np.ndarray:
+    """Indices of the k smallest values, ascending, ties by lower index (``argsort(kind="stable")[:k]``)."""
+    values = np.asarray(values, dtype=np.float64)
+    k = min(int(k), values.size)
+    if k <= 0:
+        return np.zeros(0, dtype=np.int64)
+    kth = np.partition(values, k - 1)[k - 1]
+    below = np.flatnonzero(values < kth)
+    at = np.flatnonzero(values == kth)[: k - below.size]
+    idx = np.concatenate([below, at])
+    return idx[np.lexsort((idx, values[idx]))]
+
+
+def worst_cells(points: np.ndarray, topo: CellTopology, k: int = WORST_K) -> tuple[np.ndarray, np.ndarray]:
+    """The cells a figure marks: (k smallest minimum angles, k largest maximum angles).
+
+    Cell indices count triangles first, then quads (as in :mod:`anglesmooth.quality`);
+    the first array is sorted by increasing minimum angle, the second by decreasing
+    maximum angle, ties by lower index.  O(n) (``np.partition``), no full sort.
+
+    >>> from anglesmooth.mesh import Mesh2D
+    >>> from anglesmooth.topology import build_cell_topology
+    >>> m = Mesh2D.from_arrays([[0, 0], [4, 0], [4, 1], [0, 1], [2, 3]],
+    ...                        triangles=[[3, 2, 4]], quads=[[0, 1, 2, 3]])
+    >>> lo, hi = worst_cells(m.points, build_cell_topology(m), k=1)
+    >>> lo.tolist(), hi.tolist()  # the triangle's 2-unit-high apex: min 56.3 deg, max 112.6 deg
+    ([0], [0])
+    """
+    mins, maxs = _extremes(points, topo)
+    return _smallest(mins, k), _smallest(-maxs, k)
+
+
+def _extremes(points: np.ndarray, topo: CellTopology) -> tuple[np.ndarray, np.ndarray]:
+    """Cell minimum and maximum angles (as ``cell_min_angles`` / ``cell_max_angles``) from one angle pass."""
+    t, q = corner_angles(points, topo)
+    return (np.concatenate([t.min(axis=1, initial=np.inf), q.min(axis=1, initial=np.inf)]),
+            np.concatenate([t.max(axis=1, initial=-np.inf), q.max(axis=1, initial=-np.inf)]))
+
+
+def _centroids(points: np.ndarray, topo: CellTopology) -> np.ndarray:
+    """Vertex centroid of every cell (triangles, then quads)."""
+    parts = []
+    for cells in (topo.tri, topo.quad):
+        acc = np.zeros((cells.shape[0], 2))
+        for j in range(cells.shape[1]):
+            acc += points[cells[:, j]]
+        parts.append(acc / cells.shape[1])
+    return np.concatenate(parts)
+
+
+def _cell_nodes(topo: CellTopology, cell: int) -> np.ndarray:
     nt = topo.n_tri
-    for cells, vals in ((topo.tri, values[:nt]), (topo.quad, values[nt:])):
-        if cells.shape[0] == 0:
+    return topo.tri[cell] if cell < nt else topo.quad[cell - nt]
+
+
+def zoom_window(points: np.ndarray, topo: CellTopology, cell: int, *, n_near: int = 40,
+                half_cells: float = ZOOM_HALF_CELLS, centroids: np.ndarray | None = None,
+                areas: np.ndarray | None = None) -> tuple[float, float, float, float]:
+    """A square ``(x0, x1, y0, y1)`` centred on ``cell``, about ``2 * half_cells`` local cells wide.
+
+    The local cell size is the median ``sqrt(|area|)`` of the ``n_near`` cells whose
+    centroids are nearest; the window also holds the whole cell (a long sliver), and slides
+    into the mesh's bounding box where it fits.  ``centroids`` and ``areas`` (per cell)
+    may be passed when already computed.
+    """
+    cent = _centroids(points, topo) if centroids is None else centroids
+    c = cent[cell]
+    d2 = ((cent - c) ** 2).sum(axis=1)
+    near = np.argpartition(d2, min(n_near, d2.size) - 1)[:n_near] if d2.size > n_near else np.arange(d2.size)
+    areas = cell_areas(points, topo) if areas is None else areas
+    h = float(np.median(np.sqrt(np.abs(areas[near]))))
+    extent = float(np.ptp(points[_cell_nodes(topo, cell)], axis=0).max())
+    half = max(half_cells * h, 0.6 * extent)
+    if not half > 0:
+        half = 1.0
+    # slide the window into the mesh's bounding box where it fits (a worst cell on the boundary)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    # (but keep the cell at least a quarter of the window away from the edges)
+    x0, y0 = (float(np.clip(min(max(c[i] - half, lo[i]), max(hi[i] - 2 * half, lo[i])),
+                            c[i] - 1.5 * half, c[i] - 0.5 * half)) for i in (0, 1))
+    return (float(x0), float(x0 + 2 * half), float(y0), float(y0 + 2 * half))
+
+
+def _cells_in(points: np.ndarray, topo: CellTopology, window) -> np.ndarray:
+    """Cells whose bounding box meets ``window`` (triangles first, then quads)."""
+    x0, x1, y0, y1 = window
+    out = []
+    for base, cells in ((0, topo.tri), (topo.n_tri, topo.quad)):
+        if not cells.shape[0]:
             continue
-        pc = PolyCollection(points[cells], array=vals, cmap=cmap, norm=norm, edgecolors="k", linewidths=lw)
-        ax.add_collection(pc)
+        xs, ys = points[cells, 0], points[cells, 1]
+        hit = (xs.max(1) >= x0) & (xs.min(1) <= x1) & (ys.max(1) >= y0) & (ys.min(1) <= y1)
+        out.append(base + np.flatnonzero(hit))
+    return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
+
+
+def _split(points: np.ndarray, topo: CellTopology, cells: np.ndarray | None):
+    """Triangles to draw and the cell each comes from; a quad becomes two triangles.
+
+    A quad is split along the diagonal whose smaller half has the larger signed
+    area, so a non-convex quad is covered by its two valid halves.
+    """
+    nt = topo.n_tri
+    if cells is None:
+        t_idx, q_idx = np.arange(nt), np.arange(topo.n_quad)
+    else:
+        cells = np.asarray(cells, dtype=np.int64)
+        t_idx, q_idx = cells[cells < nt], cells[cells >= nt] - nt
+    tri, quad = topo.tri[t_idx], topo.quad[q_idx]
+
+    def area(a, b, c):
+        pa, pb, pc = points[a], points[b], points[c]
+        return (pb[:, 0] - pa[:, 0]) * (pc[:, 1] - pa[:, 1]) - (pb[:, 1] - pa[:, 1]) * (pc[:, 0] - pa[:, 0])
+
+    q0, q1, q2, q3 = quad.T
+    d02 = np.minimum(area(q0, q1, q2), area(q0, q2, q3)) >= np.minimum(area(q0, q1, q3), area(q1, q2, q3))
+    first = np.where(d02[:, None], quad[:, [0, 1, 2]], quad[:, [0, 1, 3]])
+    second = np.where(d02[:, None], quad[:, [0, 2, 3]], quad[:, [1, 2, 3]])
+    tris = np.concatenate([tri, first, second])
+    owner = np.concatenate([t_idx, nt + q_idx, nt + q_idx])
+    return tris, owner
+
+
+def _edges_of(topo: CellTopology, cells: np.ndarray | None) -> np.ndarray:
+    if cells is None:
+        return topo.edges
+    used = np.zeros(topo.n_points, dtype=bool)
+    nt = topo.n_tri
+    cells = np.asarray(cells, dtype=np.int64)
+    used[topo.tri[cells[cells < nt]]] = True
+    used[topo.quad[cells[cells >= nt] - nt]] = True
+    return topo.edges[used[topo.edges].all(axis=1)]
+
+
+def edge_widths(points: np.ndarray, topo: CellTopology, edges: np.ndarray | None = None) -> np.ndarray:
+    """The local cell width at each edge (data units): what decides whether the edge is drawn.
+
+    A cell's width is ``sqrt(2 |area|)`` for a triangle and ``sqrt(|area|)`` for a quad
+    (the side of a square of that area, a triangle being half of one); a node takes the
+    mean width of its cells, an edge the mean of its two nodes.  Averaging over the cells
+    around an edge keeps a long sliver edge in a fine region from being drawn alone.
+    """
+    edges = topo.edges if edges is None else edges
+    area = np.abs(cell_areas(points, topo))
+    nt, n = topo.n_tri, topo.n_points
+    total = np.zeros(n)
+    count = np.zeros(n)
+    for cells, width in ((topo.tri, np.sqrt(2 * area[:nt])), (topo.quad, np.sqrt(area[nt:]))):
+        total += np.bincount(cells.ravel(), np.repeat(width, cells.shape[1]), minlength=n)
+        count += np.bincount(cells.ravel(), minlength=n)
+    node = total / np.maximum(count, 1)
+    return 0.5 * (node[edges[:, 0]] + node[edges[:, 1]])
+
+
+def _median_width(points: np.ndarray, topo: CellTopology, cells: np.ndarray | None) -> float:
+    """Median cell width (as in :func:`edge_widths`) of ``cells`` (default: all)."""
+    area = np.abs(cell_areas(points, topo))
+    area[: topo.n_tri] *= 2
+    width = np.sqrt(area if cells is None else area[cells])
+    return float(np.median(width)) if width.size else 0.0
+
+
+def edge_alpha(width_px: np.ndarray) -> np.ndarray:
+    """Opacity of an edge from its local cell width on screen (pixels, see :func:`edge_widths`).
+
+    0 (not drawn) below :data:`EDGE_MIN_PX`, then 0.2 rising to 0.8 at :data:`EDGE_FULL_PX` and above.
+    """
+    width_px = np.asarray(width_px, dtype=np.float64)
+    ramp = np.clip((width_px - EDGE_MIN_PX) / (EDGE_FULL_PX - EDGE_MIN_PX), 0.0, 1.0)
+    return np.where(width_px >= EDGE_MIN_PX, 0.2 + 0.6 * ramp, 0.0)
+
+
+# ---------------------------------------------------------------- drawing
+
+
+def _px_per_unit(ax) -> float:
+    """Screen pixels per data unit of an equal-aspect axes whose layout is final."""
+    ax.apply_aspect()
+    x0, x1 = ax.get_xlim()
+    return float(ax.bbox.width / abs(x1 - x0)) if x1 != x0 else 1.0
+
+
+def draw_mesh(ax, points: np.ndarray, topo: CellTopology, values: np.ndarray, *, norm, cmap=CMAP,
+              px_per_unit: float | None = None, cells: np.ndarray | None = None) -> dict:
+    """Fill the cells of ``topo`` (or the subset ``cells``) by ``values`` (one per cell), draw the visible edges.
+
+    ``px_per_unit`` (screen pixels per data unit) decides which edges are drawn: none
+    when the median cell is narrower than :data:`EDGE_MIN_PX` on screen, otherwise those
+    between cells at least that wide (:func:`edge_widths`, :func:`edge_alpha`); ``None``
+    draws every edge.  Returns the artists:
+    ``{"cells": the tripcolor collection or None, "edges": a LineCollection or None}``.
+    """
+    import matplotlib
+    from matplotlib.collections import LineCollection, TriMesh
+    from matplotlib.tri import Triangulation
+
+    points = np.asarray(points, dtype=np.float64)
+    tris, owner = _split(points, topo, cells)
+    artists = {"cells": None, "edges": None}
+    if tris.shape[0]:
+        # What tripcolor(shading="gouraud") draws, on unshared corners with one colour per triangle: flat
+        # cells without the seams of unantialiased polygons, several times faster than tripcolor's flat
+        # PolyCollection (one Path per cell); colours mapped once per triangle, not per corner.
+        rgba = matplotlib.colormaps[cmap](norm(np.asarray(values, dtype=np.float64)[owner])) \
+            if isinstance(cmap, str) else cmap(norm(np.asarray(values, dtype=np.float64)[owner]))
+        xy = points[tris].reshape(-1, 2)
+        tri = Triangulation(xy[:, 0], xy[:, 1], np.arange(xy.shape[0]).reshape(-1, 3))
+        mesh = TriMesh(tri, facecolors=np.repeat(rgba, 3, axis=0), rasterized=True, gid="cells")
+        ax.add_collection(mesh, autolim=False)
+        artists["cells"] = mesh
+    edges = _edges_of(topo, cells)
+    seg = points[edges]
+    if px_per_unit is None:
+        alpha = np.full(edges.shape[0], 0.8)
+    elif _median_width(points, topo, cells) * px_per_unit < EDGE_MIN_PX:
+        alpha = np.zeros(edges.shape[0])  # most cells are too small to show their edges: none at all
+    else:
+        alpha = edge_alpha(edge_widths(points, topo, edges) * px_per_unit)
+    keep = alpha > 0
+    if keep.any():
+        rgba = np.zeros((int(keep.sum()), 4))
+        rgba[:, 3] = alpha[keep]
+        lc = LineCollection(seg[keep], colors=rgba, linewidths=0.45, rasterized=True, gid="edges")
+        ax.add_collection(lc, autolim=False)
+        artists["edges"] = lc
+    return artists
+
+
+def _draw_mesh(ax, topo, points, values, norm, cmap):
+    """Every cell and every edge (the small meshes of ``benchmarks/paper``); sets equal aspect, no ticks."""
+    draw_mesh(ax, points, topo, values, norm=norm, cmap=cmap)
+    ax.update_datalim(np.asarray(points, dtype=np.float64)[:, :2])
     ax.set_aspect("equal")
     ax.autoscale_view()
     ax.set_xticks([])
     ax.set_yticks([])
 
 
-def _angles(points: np.ndarray, topo: Topology) -> np.ndarray:
-    t, q = corner_angles(points, topo)
-    return np.concatenate([t.ravel(), q.ravel()])
+def _mesh_axes(ax, window) -> None:
+    ax.set_xlim(window[0], window[1])
+    ax.set_ylim(window[2], window[3])
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xticks([])
+    ax.set_yticks([])
 
 
-def plot_smooth(path: str | Path, topo: Topology, before: np.ndarray, after: np.ndarray, *, title: str = "") -> None:
-    """Write a PNG: mesh before / after coloured by cell minimum angle, plus angle histograms.
+def _halo():
+    from matplotlib import patheffects
 
-    ``before`` and ``after`` are (N, 2) coordinates of the same mesh (``topo``).
+    return [patheffects.withStroke(linewidth=3.2, foreground="white")]
+
+
+def _mark(ax, cent: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+    """Fixed-size markers on the worst cells: diamonds under circles (the minimum angle matters most)."""
+    for idx, marker, size, colour, gid in ((hi, "D", 8, MAX_COLOUR, "worst-max"), (lo, "o", 11, MIN_COLOUR, "worst-min")):
+        if idx.size:
+            (line,) = ax.plot(cent[idx, 0], cent[idx, 1], linestyle="none", marker=marker, markersize=size,
+                              markerfacecolor="none", markeredgecolor=colour, markeredgewidth=1.6, zorder=5,
+                              path_effects=_halo())
+            line.set_gid(gid)
+
+
+def _outline(ax, points, topo, idx: np.ndarray, colour: str, gid: str) -> None:
+    """Outline the cells ``idx`` (in the zoom panels, where the cells are large enough)."""
+    from matplotlib.collections import PolyCollection
+
+    if not idx.size:
+        return
+    polys = [points[_cell_nodes(topo, int(c))] for c in idx]
+    ax.add_collection(PolyCollection(polys, facecolors="none", edgecolors=colour, linewidths=2.0, zorder=4,
+                                     path_effects=_halo(), gid=gid))
+
+
+def _window_marker(ax, window, px_per_unit: float) -> None:
+    from matplotlib.patches import Rectangle
+
+    x0, x1, y0, y1 = window
+    if (x1 - x0) * px_per_unit >= 12:
+        ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, edgecolor="k", linewidth=1.2,
+                               linestyle="--", zorder=6, gid="zoom-window"))
+    else:  # too small to see as a rectangle: a fixed-size square
+        ax.plot([(x0 + x1) / 2], [(y0 + y1) / 2], marker="s", markersize=16, markerfacecolor="none",
+                markeredgecolor="k", markeredgewidth=1.2, linestyle="none", zorder=6, gid="zoom-window")
+
+
+def _hist(ax, before: np.ndarray, after: np.ndarray, bins: np.ndarray, labels, xlabel: str, lines) -> None:
+    lo, hi = bins[0], bins[-1]
+    ax.hist(np.clip(before, lo, hi), bins=bins, color="0.65", label=labels[0], log=True)
+    ax.hist(np.clip(after, lo, hi), bins=bins, histtype="step", color="C0", linewidth=1.5, label=labels[1], log=True)
+    ax.set_yscale("log")
+    ax.set_ylim(bottom=0.5)
+    for x in lines:
+        ax.axvline(x, color="k", linestyle=":", linewidth=0.8)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("cells (log scale)")
+    ax.legend(fontsize="small")
+
+
+def _span(*pts: np.ndarray):
+    allp = np.vstack(pts)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    pad = 0.02 * max(float((hi - lo).max()), 1e-300)
+    return (lo[0] - pad, hi[0] + pad, lo[1] - pad, hi[1] + pad)
+
+
+def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, title: str = "",
+                  k: int = WORST_K):
+    """The figure of :func:`plot_smooth` (a matplotlib ``Figure``, not saved).
+
+    Axes carry labels for inspection: ``"mesh before"``, ``"mesh after"``,
+    ``"zoom before"``, ``"zoom after"``, ``"hist min"``, ``"hist max"``; artists carry
+    gids ``"cells"``, ``"edges"``, ``"worst-min"``, ``"worst-max"``, ``"zoom-window"``.
     """
+    from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
+    from matplotlib.lines import Line2D
 
-    span = np.ptp(np.vstack([before, after]), axis=0) if before.shape[0] else np.ones(2)
-    mesh_h = float(np.clip(5.2 * span[1] / span[0], 2.0, 7.0)) if span[0] > 0 else 5.0
-    fig = _figure(12, mesh_h + 4.5)
-    if title:
-        fig.suptitle(title)
-    grid = fig.add_gridspec(2, 2, height_ratios=[mesh_h, 4.0])
+    before = np.asarray(before, dtype=np.float64)[:, :2]
+    after = np.asarray(after, dtype=np.float64)[:, :2]
+    n_cells = topo.n_tri + topo.n_quad
+    if n_cells == 0:
+        raise AngleSmoothError("nothing to plot: the mesh has no cells")
+    stages = {"before": before, "after": after}
+    mins, maxs, cent = {}, {}, {}
+    for s, p in stages.items():
+        mins[s], maxs[s] = _extremes(p, topo)
+        cent[s] = _centroids(p, topo)
+    areas = cell_areas(after, topo)
+    bad = {"before": int((cell_areas(before, topo) <= 0).sum()), "after": int((areas <= 0).sum())}
+    worst = {s: (_smallest(mins[s], k), _smallest(-maxs[s], k)) for s in stages}
+    focus = int(worst["after"][0][0])
+    window = zoom_window(after, topo, focus, centroids=cent["after"], areas=areas)
+    extent = _span(before, after)
+
     ideal = 90.0 if topo.n_quad else 60.0
     norm = Normalize(vmin=0.0, vmax=ideal)
-    cmap = "RdYlGn"
-    mins = {"before": cell_min_angles(before, topo), "after": cell_min_angles(after, topo)}
-    ax0 = fig.add_subplot(grid[0, 0])
-    ax1 = fig.add_subplot(grid[0, 1], sharex=ax0, sharey=ax0)
-    for ax, (label, pts) in zip((ax0, ax1), (("before", before), ("after", after))):
-        _draw_mesh(ax, topo, pts, mins[label], norm, cmap)
-        ax.set_title(f"{label}: min angle {mins[label].min():.2f}°")
-    sm = ax1.collections[0]
-    fig.colorbar(sm, ax=[ax0, ax1], label="cell minimum angle (°)", shrink=0.8)
+    aspect = (extent[3] - extent[2]) / (extent[1] - extent[0]) if extent[1] > extent[0] else 1.0
+    mesh_h = float(np.clip(6.3 * aspect, 2.5, 7.5))
+    fig = _figure(14.5, mesh_h + 4.9)
+    if title:
+        fig.suptitle(title)
+    grid = fig.add_gridspec(2, 4, height_ratios=[mesh_h, 3.6])
+    axes = {"mesh before": fig.add_subplot(grid[0, 0:2]), "mesh after": fig.add_subplot(grid[0, 2:4]),
+            "zoom before": fig.add_subplot(grid[1, 0]), "zoom after": fig.add_subplot(grid[1, 1]),
+            "hist min": fig.add_subplot(grid[1, 2]), "hist max": fig.add_subplot(grid[1, 3])}
+    for label, ax in axes.items():
+        ax.set_label(label)
+    for s in stages:
+        ax = axes[f"mesh {s}"]
+        _mesh_axes(ax, extent)
+        inv = f", {bad[s]} inverted" if bad[s] else ""
+        ax.set_title(f"{s}: min angle {mins[s].min():.2f}°, max angle {maxs[s].max():.2f}°{inv}")
+        _mesh_axes(axes[f"zoom {s}"], window)
+        axes[f"zoom {s}"].set_title(f"{s}: zoom on the worst cell after", fontsize="medium")
+    fig.colorbar(ScalarMappable(norm=norm, cmap=CMAP), ax=[axes["mesh before"], axes["mesh after"]],
+                 label="cell minimum angle (°)", shrink=0.85)
+    kk = min(k, n_cells)
+    handles = [Line2D([], [], linestyle="none", marker="o", markersize=9, markerfacecolor="none",
+                      markeredgecolor=MIN_COLOUR, markeredgewidth=1.6, label=f"the {kk} smallest minimum angles"),
+               Line2D([], [], linestyle="none", marker="D", markersize=7, markerfacecolor="none",
+                      markeredgecolor=MAX_COLOUR, markeredgewidth=1.6, label=f"the {kk} largest maximum angles"),
+               Line2D([], [], linestyle="none", marker="s", markersize=9, markerfacecolor="none",
+                      markeredgecolor="k", label="zoom window")]
+    fig.legend(handles=handles, loc="outside lower center", ncols=3, frameon=False)
 
-    bins = np.arange(0.0, 182.0, 2.0)
-    hist_c = fig.add_subplot(grid[1, 0])
-    for label, pts, style in (("before", before, dict(color="0.6", alpha=0.7)),
-                              ("after", after, dict(histtype="step", color="C0", linewidth=1.5))):
-        hist_c.hist(np.clip(_angles(pts, topo), 0, 180), bins=bins, label=label, **style)
-    for x in (20, 130, 150):
-        hist_c.axvline(x, color="k", linestyle=":", linewidth=0.8)
-    hist_c.set_xlabel("corner angle (°)")
-    hist_c.set_ylabel("corners")
-    hist_c.set_title("all corner angles")
-    hist_c.legend()
+    mbins = np.arange(0.0, ideal + 1.0, 1.0)
+    labels = [f"{s}" + (f" ({bad[s]} inverted, off scale)" if bad[s] else "") for s in stages]
+    _hist(axes["hist min"], mins["before"], mins["after"], mbins, labels, "cell minimum angle (°)", [20])
+    axes["hist min"].set_title("cell minimum angles")
+    xbins = np.concatenate([np.arange(60.0 if topo.n_tri else 90.0, 181.0, 1.0), [185.0]])
+    _hist(axes["hist max"], maxs["before"], maxs["after"], xbins, list(stages), "cell maximum angle (°)",
+          [130, 150])
+    axes["hist max"].axvspan(180, 185, color="r", alpha=0.15, linewidth=0)
+    axes["hist max"].text(182.5, 0.97, "> 180° invalid", transform=axes["hist max"].get_xaxis_transform(),
+                          rotation=90, ha="center", va="top", fontsize="x-small", color="r")
+    axes["hist max"].set_title("cell maximum angles")
 
-    hist_m = fig.add_subplot(grid[1, 1])
-    mbins = np.arange(0.0, ideal + 2.0, 1.0)
-    for label, style in (("before", dict(color="0.6", alpha=0.7)),
-                         ("after", dict(histtype="step", color="C0", linewidth=1.5))):
-        hist_m.hist(np.clip(mins[label], 0, ideal), bins=mbins, label=label, **style)
-    hist_m.axvline(20, color="k", linestyle=":", linewidth=0.8)
-    hist_m.set_xlabel("cell minimum angle (°)")
-    hist_m.set_ylabel("cells")
-    hist_m.set_title("cell minimum angles")
-    hist_m.legend()
-    _save(fig, path)
+    # freeze the layout before adding the mesh artists: the pixel size of a cell is then known,
+    # and a million polygons never enter the layout computation
+    fig.get_layout_engine().execute(fig)
+    fig.set_layout_engine("none")
+    for s, pts in stages.items():
+        lo, hi = worst[s]
+        ax = axes[f"mesh {s}"]
+        ppu = _px_per_unit(ax)
+        draw_mesh(ax, pts, topo, mins[s], norm=norm, px_per_unit=ppu)
+        _mark(ax, cent[s], lo, hi)
+        _window_marker(ax, window, ppu)
+        zax = axes[f"zoom {s}"]
+        inside = _cells_in(pts, topo, window)
+        draw_mesh(zax, pts, topo, mins[s], norm=norm, px_per_unit=_px_per_unit(zax), cells=inside)
+        shown = set(inside.tolist())
+        _outline(zax, pts, topo, np.array([c for c in hi if c in shown], dtype=np.int64), MAX_COLOUR, "worst-max")
+        _outline(zax, pts, topo, np.array([c for c in lo if c in shown], dtype=np.int64), MIN_COLOUR, "worst-min")
+        c = cent[s][focus]
+        towards = np.sign([(window[0] + window[1]) / 2 - c[0], (window[2] + window[3]) / 2 - c[1]]) + (0.5, 0.5)
+        zax.annotate(f"{mins[s][focus]:.1f}°", c, xytext=tuple(9 * np.sign(towards)), textcoords="offset points",
+                     ha="left" if towards[0] > 0 else "right", va="bottom" if towards[1] > 0 else "top",
+                     fontsize="small", fontweight="bold", color="k", path_effects=_halo(), zorder=7,
+                     annotation_clip=True, clip_on=True)
+    return fig
 
 
-def plot_compare(path: str | Path, histories: Mapping[str, Mapping[str, Sequence[float | None]]], *,
-                 title: str = "") -> None:
-    """Write a PNG with the per-pass curves of every method.
+def plot_smooth(path: str | Path, topo: CellTopology, before: np.ndarray, after: np.ndarray, *,
+                title: str = "") -> None:
+    """Write a PNG: the mesh before / after coloured by cell minimum angle, worst cells marked, zoom, histograms.
 
-    ``histories`` maps a method name to ``{"min_angle": [...], "area_ratio": [...]}``,
-    index 0 being the input mesh; an infinite area ratio may be given as None.
+    ``before`` and ``after`` are (N, 2) coordinates of the same mesh (``topo``).
+    See :func:`smooth_figure`.
     """
+    _save(smooth_figure(topo, before, after, title=title), path)
+
+
+def compare_figure(histories: Mapping[str, Mapping[str, Sequence[float | None]]], *, title: str = ""):
+    """The figure of :func:`plot_compare` (not saved)."""
     fig = _figure(12, 4.5)
     if title:
         fig.suptitle(title)
@@ -165,4 +547,14 @@ def plot_compare(path: str | Path, histories: Mapping[str, Mapping[str, Sequence
     for ax in (ax_a, ax_r):
         ax.grid(True, alpha=0.3)
         ax.legend()
-    _save(fig, path)
+    return fig
+
+
+def plot_compare(path: str | Path, histories: Mapping[str, Mapping[str, Sequence[float | None]]], *,
+                 title: str = "") -> None:
+    """Write a PNG with the per-pass curves of every method.
+
+    ``histories`` maps a method name to ``{"min_angle": [...], "area_ratio": [...]}``,
+    index 0 being the input mesh; an infinite area ratio may be given as None.
+    """
+    _save(compare_figure(histories, title=title), path)
