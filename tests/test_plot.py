@@ -114,7 +114,9 @@ def test_marked_cells_are_the_worst_cells(large, large_fig):
 
 def test_zoom_is_on_the_worst_cell_after(large, large_fig):
     m, topo, after = large
-    worst = plot.worst_cells(after, topo, 1)[0][0]
+    bad = np.flatnonzero(cell_areas(after, topo) <= 0)
+    assert bad.size  # the jitter folds a few cells: the zoom goes to the most folded one
+    worst = bad[np.argmax(cell_max_angles(after, topo)[bad])]
     c = plot._centroids(after, topo)[worst]
     for stage in ("before", "after"):
         ax = _by_label(large_fig, f"zoom {stage}")
@@ -123,8 +125,38 @@ def test_zoom_is_on_the_worst_cell_after(large, large_fig):
         assert (x1 - x0) < 0.05 * np.ptp(m.points[:, 0])  # a zoom, not the whole mesh
         (cells,) = _gid(ax, "cells")
         assert 0 < cells.verts.shape[0] < 2000  # only the cells in the window are drawn
-    outlined = _gid(_by_label(large_fig, "zoom after"), "worst-min")
+    outlined = _gid(_by_label(large_fig, "zoom after"), "worst-max")  # a folded cell has the largest angles
     assert outlined and any(np.allclose(p.vertices[:3], after[topo.tri[worst]]) for p in outlined[0].get_paths())
+    labels = [t.get_text() for t in _by_label(large_fig, "zoom after").texts]
+    assert labels == ["inverted"]
+
+
+def test_zoom_without_inverted_cells_is_on_the_smallest_minimum_angle():
+    import anglesmooth
+
+    m = gen.paper_mixed_mesh(seed=3)
+    result = anglesmooth.smooth(m, "angle", passes=3)  # guarded: nothing inverted
+    topo, after = result.topology, result.points
+    assert not (cell_areas(after, topo) <= 0).any()
+    fig = plot.smooth_figure(topo, m.points, after)
+    worst = plot.worst_cells(after, topo, 1)[0][0]
+    c = plot._centroids(after, topo)[worst]
+    ax = _by_label(fig, "zoom after")
+    assert ax.get_xlim()[0] < c[0] < ax.get_xlim()[1] and ax.get_ylim()[0] < c[1] < ax.get_ylim()[1]
+    assert [t.get_text() for t in ax.texts] == [f"{cell_min_angles(after, topo)[worst]:.1f}°"]
+    assert not _gid(_by_label(fig, "mesh after"), "inverted")
+
+
+def test_inverted_cells_are_black_and_crossed(large, large_fig):
+    m, topo, after = large
+    bad = np.flatnonzero(cell_areas(after, topo) <= 0)
+    ax = _by_label(large_fig, "mesh after")
+    (crosses,) = _gid(ax, "inverted")
+    np.testing.assert_allclose(np.c_[crosses.get_xdata(), crosses.get_ydata()],
+                               plot._centroids(after, topo)[bad[: plot.MAX_INVERTED_MARKS]])
+    (cells,) = _gid(ax, "cells")
+    black = np.all(cells.rgba[:, :3] == 0, axis=1)  # triangles only here: one drawn triangle per cell
+    assert np.flatnonzero(black).tolist() == bad.tolist()
 
 
 def test_zoom_window_stays_in_the_mesh_and_around_the_cell():

@@ -65,6 +65,8 @@ EDGE_MIN_PX = 6.0
 EDGE_FULL_PX = 24.0
 #: Half-width of the zoom window in local cell sizes (median sqrt(area) of the cells around the worst one).
 ZOOM_HALF_CELLS = 5.0
+#: Inverted cells marked with a cross in each mesh panel, at most.
+MAX_INVERTED_MARKS = 500
 CMAP = "RdYlGn"
 MIN_COLOUR = "#1030ff"  # circles: smallest minimum angles
 MAX_COLOUR = "#c000c0"  # diamonds: largest maximum angles
@@ -398,14 +400,19 @@ def _halo():
     return [patheffects.withStroke(linewidth=3.2, foreground="white")]
 
 
-def _mark(ax, cent: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
-    """Fixed-size markers on the worst cells: diamonds under circles (the minimum angle matters most)."""
+def _mark(ax, cent: np.ndarray, lo: np.ndarray, hi: np.ndarray, inverted: np.ndarray) -> None:
+    """Fixed-size markers on the worst cells: diamonds under circles (the minimum angle matters most),
+    and a black cross on each inverted cell (the first :data:`MAX_INVERTED_MARKS`)."""
     for idx, marker, size, colour, gid in ((hi, "D", 8, MAX_COLOUR, "worst-max"), (lo, "o", 11, MIN_COLOUR, "worst-min")):
         if idx.size:
             (line,) = ax.plot(cent[idx, 0], cent[idx, 1], linestyle="none", marker=marker, markersize=size,
                               markerfacecolor="none", markeredgecolor=colour, markeredgewidth=1.6, zorder=5,
                               path_effects=_halo())
             line.set_gid(gid)
+    if inverted.size:
+        idx = inverted[:MAX_INVERTED_MARKS]
+        ax.plot(cent[idx, 0], cent[idx, 1], linestyle="none", marker="X", markersize=9, markerfacecolor="k",
+                markeredgecolor="white", markeredgewidth=0.8, zorder=6, gid="inverted")
 
 
 def _outline(ax, points, topo, idx: np.ndarray, colour: str, gid: str) -> None:
@@ -457,8 +464,13 @@ def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, 
 
     Axes carry labels for inspection: ``"mesh before"``, ``"mesh after"``,
     ``"zoom before"``, ``"zoom after"``, ``"hist min"``, ``"hist max"``; artists carry
-    gids ``"cells"``, ``"edges"``, ``"worst-min"``, ``"worst-max"``, ``"zoom-window"``.
+    gids ``"cells"``, ``"edges"``, ``"worst-min"``, ``"worst-max"``, ``"inverted"``, ``"zoom-window"``.
+    Inverted cells are filled black, crossed, counted in the titles and left out of the
+    minimum-angle histogram (their angles are > 180°, in the maximum-angle one's last bin);
+    the zoom is on the most folded inverted cell after, if any, else on the cell with the
+    smallest minimum angle after.
     """
+    import matplotlib
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
     from matplotlib.lines import Line2D
@@ -469,19 +481,25 @@ def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, 
     if n_cells == 0:
         raise AngleSmoothError("nothing to plot: the mesh has no cells")
     stages = {"before": before, "after": after}
-    mins, maxs, cent = {}, {}, {}
+    mins, maxs, cent, areas, inverted, colour = {}, {}, {}, {}, {}, {}
     for s, p in stages.items():
         mins[s], maxs[s] = _extremes(p, topo)
         cent[s] = _centroids(p, topo)
-    areas = cell_areas(after, topo)
-    bad = {"before": int((cell_areas(before, topo) <= 0).sum()), "after": int((areas <= 0).sum())}
+        areas[s] = cell_areas(p, topo)
+        inverted[s] = np.flatnonzero(areas[s] <= 0)
+        colour[s] = mins[s].copy()
+        colour[s][inverted[s]] = -1.0  # below the colour scale: drawn black (an inverted cell's angles are > 180)
+    bad = {s: int(inverted[s].size) for s in stages}
     worst = {s: (_smallest(mins[s], k), _smallest(-maxs[s], k)) for s in stages}
-    focus = int(worst["after"][0][0])
-    window = zoom_window(after, topo, focus, centroids=cent["after"], areas=areas)
+    # zoom on the worst cell after: the most folded inverted cell if any, else the smallest minimum angle
+    focus = int(inverted["after"][np.argmax(maxs["after"][inverted["after"]])]) if bad["after"] \
+        else int(worst["after"][0][0])
+    window = zoom_window(after, topo, focus, centroids=cent["after"], areas=areas["after"])
     extent = _span(before, after)
 
     ideal = 90.0 if topo.n_quad else 60.0
     norm = Normalize(vmin=0.0, vmax=ideal)
+    cmap = matplotlib.colormaps[CMAP].with_extremes(under="black")
     aspect = (extent[3] - extent[2]) / (extent[1] - extent[0]) if extent[1] > extent[0] else 1.0
     mesh_h = float(np.clip(6.3 * aspect, 2.5, 7.5))
     fig = _figure(14.5, mesh_h + 4.9)
@@ -500,8 +518,10 @@ def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, 
         ax.set_title(f"{s}: min angle {mins[s].min():.2f}°, max angle {maxs[s].max():.2f}°{inv}")
         _mesh_axes(axes[f"zoom {s}"], window)
         axes[f"zoom {s}"].set_title(f"{s}: zoom on the worst cell after", fontsize="medium")
-    fig.colorbar(ScalarMappable(norm=norm, cmap=CMAP), ax=[axes["mesh before"], axes["mesh after"]],
-                 label="cell minimum angle (°)", shrink=0.85)
+    any_bad = bad["before"] or bad["after"]
+    fig.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=[axes["mesh before"], axes["mesh after"]],
+                 label="cell minimum angle (°)" + ("; black: inverted" if any_bad else ""), shrink=0.85,
+                 extend="min" if any_bad else "neither")
     kk = min(k, n_cells)
     handles = [Line2D([], [], linestyle="none", marker="o", markersize=9, markerfacecolor="none",
                       markeredgecolor=MIN_COLOUR, markeredgewidth=1.6, label=f"the {kk} smallest minimum angles"),
@@ -509,11 +529,15 @@ def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, 
                       markeredgecolor=MAX_COLOUR, markeredgewidth=1.6, label=f"the {kk} largest maximum angles"),
                Line2D([], [], linestyle="none", marker="s", markersize=9, markerfacecolor="none",
                       markeredgecolor="k", label="zoom window")]
-    fig.legend(handles=handles, loc="outside lower center", ncols=3, frameon=False)
+    if any_bad:
+        handles.append(Line2D([], [], linestyle="none", marker="X", markersize=9, markerfacecolor="k",
+                              markeredgecolor="white", label="inverted cells"))
+    fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), frameon=False)
 
     mbins = np.arange(0.0, ideal + 1.0, 1.0)
-    labels = [f"{s}" + (f" ({bad[s]} inverted, off scale)" if bad[s] else "") for s in stages]
-    _hist(axes["hist min"], mins["before"], mins["after"], mbins, labels, "cell minimum angle (°)", [20])
+    labels = [f"{s}" + (f" ({bad[s]} inverted not shown)" if bad[s] else "") for s in stages]
+    valid = {s: np.delete(mins[s], inverted[s]) for s in stages}
+    _hist(axes["hist min"], valid["before"], valid["after"], mbins, labels, "cell minimum angle (°)", [20])
     axes["hist min"].set_title("cell minimum angles")
     xbins = np.concatenate([np.arange(60.0 if topo.n_tri else 90.0, 181.0, 1.0), [185.0]])
     _hist(axes["hist max"], maxs["before"], maxs["after"], xbins, list(stages), "cell maximum angle (°)",
@@ -531,18 +555,19 @@ def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, 
         lo, hi = worst[s]
         ax = axes[f"mesh {s}"]
         ppu = _px_per_unit(ax)
-        draw_mesh(ax, pts, topo, mins[s], norm=norm, px_per_unit=ppu)
-        _mark(ax, cent[s], lo, hi)
+        draw_mesh(ax, pts, topo, colour[s], norm=norm, cmap=cmap, px_per_unit=ppu)
+        _mark(ax, cent[s], lo, hi, inverted[s])
         _window_marker(ax, window, ppu)
         zax = axes[f"zoom {s}"]
         inside = _cells_in(pts, topo, window)
-        draw_mesh(zax, pts, topo, mins[s], norm=norm, px_per_unit=_px_per_unit(zax), cells=inside)
+        draw_mesh(zax, pts, topo, colour[s], norm=norm, cmap=cmap, px_per_unit=_px_per_unit(zax), cells=inside)
         shown = set(inside.tolist())
         _outline(zax, pts, topo, np.array([c for c in hi if c in shown], dtype=np.int64), MAX_COLOUR, "worst-max")
         _outline(zax, pts, topo, np.array([c for c in lo if c in shown], dtype=np.int64), MIN_COLOUR, "worst-min")
         c = cent[s][focus]
         towards = np.sign([(window[0] + window[1]) / 2 - c[0], (window[2] + window[3]) / 2 - c[1]]) + (0.5, 0.5)
-        zax.annotate(f"{mins[s][focus]:.1f}°", c, xytext=tuple(9 * np.sign(towards)), textcoords="offset points",
+        label = "inverted" if areas[s][focus] <= 0 else f"{mins[s][focus]:.1f}°"
+        zax.annotate(label, c, xytext=tuple(9 * np.sign(towards)), textcoords="offset points",
                      ha="left" if towards[0] > 0 else "right", va="bottom" if towards[1] > 0 else "top",
                      fontsize="small", fontweight="bold", color="k", path_effects=_halo(), zorder=7,
                      annotation_clip=True, clip_on=True)
