@@ -540,11 +540,9 @@ def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, 
     _hist(axes["hist min"], valid["before"], valid["after"], mbins, labels, "cell minimum angle (°)", [20])
     axes["hist min"].set_title("cell minimum angles")
     xbins = np.concatenate([np.arange(60.0 if topo.n_tri else 90.0, 181.0, 1.0), [185.0]])
-    _hist(axes["hist max"], maxs["before"], maxs["after"], xbins, list(stages), "cell maximum angle (°)",
-          [130, 150])
-    axes["hist max"].axvspan(180, 185, color="r", alpha=0.15, linewidth=0)
-    axes["hist max"].text(182.5, 0.97, "> 180° invalid", transform=axes["hist max"].get_xaxis_transform(),
-                          rotation=90, ha="center", va="top", fontsize="x-small", color="r")
+    _hist(axes["hist max"], maxs["before"], maxs["after"], xbins, list(stages),
+          "cell maximum angle (°); red: > 180°, invalid", [130, 150])
+    axes["hist max"].axvspan(180, 185, color="r", alpha=0.2, linewidth=0)
     axes["hist max"].set_title("cell maximum angles")
 
     # freeze the layout before adding the mesh artists: the pixel size of a cell is then known,
