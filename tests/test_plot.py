@@ -14,7 +14,7 @@ from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.colors import Normalize  # noqa: E402
 
 from anglesmooth import generate as gen  # noqa: E402
-from anglesmooth import plot  # noqa: E402
+from anglesmooth import meshplot, plot  # noqa: E402
 from anglesmooth.errors import AngleSmoothError  # noqa: E402
 from anglesmooth.mesh import Mesh2D  # noqa: E402
 from anglesmooth.quality import cell_areas, cell_max_angles, cell_min_angles  # noqa: E402
@@ -212,7 +212,7 @@ def test_edges_drawn_exactly_where_the_cells_are_wide_enough_on_screen():
         ax = Figure().add_subplot()
         art = plot.draw_mesh(ax, m.points, topo, values, norm=Normalize(0, 60), px_per_unit=ppu)
         wide = width * ppu >= plot.EDGE_MIN_PX
-        if plot._median_width(m.points, topo, None) * ppu < plot.EDGE_MIN_PX:
+        if meshplot._median_width(m.points, topo, None) * ppu < plot.EDGE_MIN_PX:
             wide[:] = False  # most cells too small: no edges at all
         if not wide.any():
             assert art["edges"] is None and not _gid(ax, "edges")
@@ -231,7 +231,7 @@ def test_median_width_rule_drops_every_edge():
 
     m = gen.graded_mesh(seed=2)
     topo = build_cell_topology(m)
-    median = plot._median_width(m.points, topo, None)
+    median = meshplot._median_width(m.points, topo, None)
     values = cell_min_angles(m.points, topo)
     ppu = 0.99 * plot.EDGE_MIN_PX / median  # the median cell just under the threshold
     assert (plot.edge_widths(m.points, topo) * ppu >= plot.EDGE_MIN_PX).any()  # some would pass alone
@@ -262,7 +262,7 @@ def test_quads_split_into_two_valid_triangles():
     pts = np.array([[0, 0], [2, 0], [0.6, 0.6], [0, 2], [2.5, 2.5]], float)
     m = Mesh2D.from_arrays(pts, triangles=[[1, 4, 2]], quads=[[0, 1, 2, 3]])
     topo = build_cell_topology(m)
-    tris, owner = plot._split(pts, topo, None)
+    tris, owner = meshplot._split(pts, topo, None)
     assert owner.tolist() == [0, 1, 1]
     p = pts[tris]
     cross = (p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1]) - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0])
