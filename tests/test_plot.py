@@ -172,6 +172,13 @@ def test_zoom_window_stays_in_the_mesh_and_around_the_cell():
     assert x0 >= c[0] - 1.5 * half - 1e-9 and y0 >= c[1] - 1.5 * half - 1e-9  # slid towards the mesh
 
 
+def test_zoom_window_of_a_tiny_mesh_is_the_whole_mesh():
+    m = Mesh2D.from_arrays([[0, 0], [1, 0], [0, 1]], triangles=[[0, 1, 2]])
+    x0, x1, y0, y1 = plot.zoom_window(m.points, build_cell_topology(m), 0)
+    assert x0 < 0 and y0 < 0 and x1 > 1 and y1 > 1 and x1 - x0 == pytest.approx(y1 - y0)
+    assert x1 - x0 < 1.2
+
+
 # ---------------------------------------------------------------- edges by on-screen size
 
 

@@ -96,7 +96,7 @@ def zoom_window(points: np.ndarray, topo: CellTopology, cell: int, *, n_near: in
 
     The local cell size is the median ``sqrt(|area|)`` of the ``n_near`` cells whose
     centroids are nearest; the window also holds the whole cell (a long sliver), and slides
-    into the mesh's bounding box where it fits.  ``centroids`` and ``areas`` (per cell)
+    into the mesh's bounding box where it fits; it is the whole mesh when that is smaller.  ``centroids`` and ``areas`` (per cell)
     may be passed when already computed.
     """
     cent = _centroids(points, topo) if centroids is None else centroids
@@ -109,8 +109,13 @@ def zoom_window(points: np.ndarray, topo: CellTopology, cell: int, *, n_near: in
     half = max(half_cells * h, 0.6 * extent)
     if not half > 0:
         half = 1.0
-    # slide the window into the mesh's bounding box where it fits (a worst cell on the boundary)
     lo, hi = points.min(axis=0), points.max(axis=0)
+    span = float((hi - lo).max())
+    if 2 * half >= span > 0:  # a mesh of a few cells: the whole mesh
+        mid = (lo + hi) / 2
+        half = 0.55 * span
+        return (float(mid[0] - half), float(mid[0] + half), float(mid[1] - half), float(mid[1] + half))
+    # slide the window into the mesh's bounding box where it fits (a worst cell on the boundary)
     # (but keep the cell at least a quarter of the window away from the edges)
     x0, y0 = (float(np.clip(min(max(c[i] - half, lo[i]), max(hi[i] - 2 * half, lo[i])),
                             c[i] - 1.5 * half, c[i] - 0.5 * half)) for i in (0, 1))

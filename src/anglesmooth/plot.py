@@ -270,9 +270,9 @@ def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, 
                  extend="min" if any_bad else "neither")
     kk = min(k, n_cells)
     handles = [Line2D([], [], linestyle="none", marker="o", markersize=9, markerfacecolor="none",
-                      markeredgecolor=MIN_COLOUR, markeredgewidth=1.6, label=f"the {kk} smallest minimum angles"),
+                      markeredgecolor=MIN_COLOUR, markeredgewidth=1.6, label=f"smallest minimum angles ({kk} cell{'s' * (kk > 1)})"),
                Line2D([], [], linestyle="none", marker="D", markersize=7, markerfacecolor="none",
-                      markeredgecolor=MAX_COLOUR, markeredgewidth=1.6, label=f"the {kk} largest maximum angles"),
+                      markeredgecolor=MAX_COLOUR, markeredgewidth=1.6, label=f"largest maximum angles ({kk} cell{'s' * (kk > 1)})"),
                Line2D([], [], linestyle="none", marker="s", markersize=9, markerfacecolor="none",
                       markeredgecolor="k", label="zoom window")]
     if any_bad:
