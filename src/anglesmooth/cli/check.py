@@ -13,9 +13,9 @@ from ..gates import evaluate
 from ..quality import summarize
 from ..topology import build_cell_topology
 from .errors import EXIT_GATE, EXIT_INPUT, classify, error, handle_errors
-from .meshfiles import display, read_mesh
+from .meshfiles import display, plan_outputs, read_mesh
 from .options import debug_option, gate_options, input_format_option, json_option, quiet_option
-from .outputs import emit_json, gate_thresholds, make_console, plain
+from .outputs import emit_json, gate_thresholds, make_console, note_stale, plain
 
 
 @click.command("check")
@@ -33,6 +33,8 @@ def check_cmd(inputs, input_format, json_path, quiet, debug, **gate_opts) -> Non
     cannot be read (the others are still checked; 3 wins over 1).
     """
     console = make_console(quiet)
+    outs = plan_outputs({"--json": json_path}, [*(("INPUT", p) for p in inputs), ("--gate-file", gate_opts.get("gate_file"))])
+    note_stale(console, outs)
     thresholds, exit_zero = gate_thresholds(gate_opts)
     entries, failures = [], []
     for path in inputs:
@@ -50,7 +52,9 @@ def check_cmd(inputs, input_format, json_path, quiet, debug, **gate_opts) -> Non
             plain(console, f"{e['input']}: all {len(e['gates'])} gates passed")
     errors = any(e["error"] for e in entries)
     passed = not errors and all(e["passed"] for e in entries)
-    emit_json(json_path, report.check_json(entries, passed))
+    with outs:
+        emit_json(json_path, report.check_json(entries, passed))
+        outs.commit()
     if errors:
         raise click.exceptions.Exit(EXIT_INPUT)
     if not passed and not exit_zero:

@@ -10,7 +10,7 @@ import click
 from ..__about__ import __version__
 from .check import check_cmd
 from .compare import compare_cmd
-from .errors import on_sigterm
+from .errors import classify, error, on_sigterm, prepare_std_streams
 from .smooth import smooth_cmd
 
 
@@ -50,7 +50,20 @@ for _command in (smooth_cmd, check_cmd, compare_cmd):
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Console-script entry point: install the SIGTERM handler and run the click group."""
+    """Console-script entry point: install the SIGTERM handler, guard closed std streams, run the group.
+
+    A Ctrl-C or SIGTERM that arrives outside a command (while click parses the arguments) exits
+    130 / 143 with one line, like one inside a command.
+    """
     with contextlib.suppress(ValueError):  # not in the main thread
         signal.signal(signal.SIGTERM, on_sigterm)
-    cli.main(args=argv, prog_name="anglesmooth")
+    prepare_std_streams()
+    try:
+        code = cli.main(args=argv, prog_name="anglesmooth", standalone_mode=False)
+    except (click.exceptions.Abort, KeyboardInterrupt) as exc:
+        code, message = classify(exc if isinstance(exc, KeyboardInterrupt) else exc.__context__ or KeyboardInterrupt())
+        error(message)
+    except click.exceptions.ClickException as exc:
+        exc.show()
+        code = exc.exit_code
+    raise SystemExit(code if isinstance(code, int) else 0)

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-
 import click
 
 from .. import report
@@ -19,7 +17,7 @@ from .meshfiles import STDIO, check_paths, display, extra_fixed, read_fix_nodes,
 from .options import (debug_option, gate_options, input_format_option, json_option, no_guard_option, order_option,
                       quiet_option)
 from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, progress_bar,
-                      report_gates, stage_json, warn_invalid)
+                      note_stale, report_gates, warn_invalid)
 
 
 @click.command("smooth")
@@ -52,8 +50,10 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
                input_format, output_format, json_path, plot, progress, quiet, debug, **gate_opts) -> None:
     """Smooth INPUT and write OUTPUT ('-' for stdin/stdout); gates apply to the result, after writing it."""
     console = make_console(quiet)
-    output = check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
-                         output_format=output_format, json_path=json_path)
+    output, outs = check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
+                               output_format=output_format, json_path=json_path, plot=plot, fix_nodes=fix_nodes,
+                               gate_file=gate_opts.get("gate_file"))
+    note_stale(console, outs)
     thresholds, exit_zero = gate_thresholds(gate_opts)
     kernel_mode()  # a bad ANGLESMOOTH_KERNEL is a usage error before any work
     if plot:
@@ -62,42 +62,36 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
         require_matplotlib()
     user_nodes = read_fix_nodes(fix_nodes) if fix_nodes else None
     name, out_name = display(input), "<stdout>" if output == STDIO else output
-    mesh = read_mesh(input, input_format)
-    topo = build_topology(mesh, extra_fixed(mesh, fix_group, user_nodes))
-    before = summarize(mesh.points, topo)
-    warn_invalid(console, name, before)
-    note_fast(console, topo, passes)
-    with progress_bar(console, passes, mesh.n_cells, progress, compiled=fast_active(topo)) as callback:
-        result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
-                            callback=callback)
-    after = summarize(result.points, topo)
-    gates = evaluate(after, thresholds)
-    document = report.smooth_json(
-        input=name, output=out_name, method=method, guard=not no_guard, order=order, passes=result.passes,
-        passes_requested=passes, tol=tol, displacements=result.displacements, rejected=result.rejected,
-        before=before, after=after, elapsed_s=result.elapsed_s, gates=gates, passed=all(g.passed for g in gates))
-    # the JSON file is staged first and renamed after the mesh is written: an error in
-    # either leaves neither behind
-    staged = stage_json(json_path, document) if json_path not in (None, STDIO) else None
-    try:
+    # every output is staged and committed together at the end: an error or a signal
+    # before that leaves none of them (see README "Rules")
+    with outs:
+        mesh = read_mesh(input, input_format)
+        topo = build_topology(mesh, extra_fixed(mesh, fix_group, user_nodes))
+        before = summarize(mesh.points, topo)
+        warn_invalid(console, name, before)
+        note_fast(console, topo, passes)
+        with progress_bar(console, passes, mesh.n_cells, progress, compiled=fast_active(topo)) as callback:
+            result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
+                                callback=callback)
+        after = summarize(result.points, topo)
+        gates = evaluate(after, thresholds)
+        document = report.smooth_json(
+            input=name, output=out_name, method=method, guard=not no_guard, order=order, passes=result.passes,
+            passes_requested=passes, tol=tol, displacements=result.displacements, rejected=result.rejected,
+            before=before, after=after, elapsed_s=result.elapsed_s, gates=gates,
+            passed=all(g.passed for g in gates))
         write_mesh(mesh, output, result.points, output_format)
-    except BaseException:
-        if staged is not None:
-            staged.unlink(missing_ok=True)
-        raise
-    if staged is not None:
-        os.replace(staged, json_path)
-    elif json_path == STDIO:
         emit_json(json_path, document)
+        if plot:
+            from ..plot import plot_smooth
+
+            plot_smooth(plot, topo, mesh.points, result.points, title=f"{name}: {method}, {result.passes} passes")
+        outs.commit()
     run = {"passes performed": f"{result.passes} / {passes}", "rejected moves": result.rejected,
            "last displacement": f"{result.displacements[-1] if result.displacements else 0:.3g} x mean edge",
            "time": f"{result.elapsed_s:.3f} s"}
     guard = "guarded" if not no_guard else "no guard"
     console.print(report.smooth_table(before, after, run, title=f"{name} -> {out_name}: {method}, {guard}, {order}"))
     passed = report_gates(console, out_name, gates)
-    if plot:
-        from ..plot import plot_smooth
-
-        plot_smooth(plot, topo, mesh.points, result.points, title=f"{name}: {method}, {result.passes} passes")
     if not passed and not exit_zero:
         raise click.exceptions.Exit(EXIT_GATE)
