@@ -70,7 +70,9 @@ def note_stale(console: Console, outs) -> None:
     stale = _paths.stale_temporaries(outs.targets.values())
     if stale:
         names = ", ".join(str(p) for p in stale[:3]) + (f" and {len(stale) - 3} more" if len(stale) > 3 else "")
-        plain(console, f"note: temporary file(s) left by an interrupted earlier run: {names} (safe to delete)")
+        if not console.quiet:  # one line, never wrapped
+            click.echo(f"note: temporary file(s) left by an interrupted earlier run: {names} (safe to delete "
+                       "once no other anglesmooth run writes the same output)", err=True)
 
 
 def plain(console: Console, text: str) -> None:
