@@ -33,7 +33,8 @@ def check_cmd(inputs, input_format, json_path, quiet, debug, **gate_opts) -> Non
     cannot be read (the others are still checked; 3 wins over 1).
     """
     console = make_console(quiet)
-    outs = plan_outputs({"--json": json_path}, [*(("INPUT", p) for p in inputs), ("--gate-file", gate_opts.get("gate_file"))])
+    read = [*(("INPUT", p) for p in inputs), ("--gate-file", gate_opts.get("gate_file"))]
+    outs = plan_outputs({"--json": json_path}, read)
     note_stale(console, outs)
     thresholds, exit_zero = gate_thresholds(gate_opts)
     entries, failures = [], []

@@ -23,8 +23,10 @@ class FiniteFloat(click.FloatRange):
 
 def gate_options(f: Callable) -> Callable:
     options = [
-        click.option("--min-angle", type=FiniteFloat(), metavar="DEG", help="Gate: smallest corner angle must be >= DEG."),
-        click.option("--max-angle", type=FiniteFloat(), metavar="DEG", help="Gate: largest corner angle must be <= DEG."),
+        click.option("--min-angle", type=FiniteFloat(), metavar="DEG",
+                     help="Gate: smallest corner angle must be >= DEG."),
+        click.option("--max-angle", type=FiniteFloat(), metavar="DEG",
+                     help="Gate: largest corner angle must be <= DEG."),
         click.option("--max-inverted", type=click.IntRange(min=0), metavar="N",
                      help="Gate: at most N inverted cells (0 when any other gate is given)."),
         click.option("--max-area-ratio", type=FiniteFloat(min=0), metavar="R",
