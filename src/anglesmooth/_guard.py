@@ -35,6 +35,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import os
+import stat
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -60,10 +61,12 @@ def _remaining(file) -> int | None:
     """Bytes left in an open file (or the size of a file name), None when unknown."""
     try:
         if isinstance(file, (str, bytes, os.PathLike)):
-            return os.stat(file).st_size
-        return os.fstat(file.fileno()).st_size - file.tell()
+            st, pos = os.stat(file), 0
+        else:
+            st, pos = os.fstat(file.fileno()), file.tell()
     except (OSError, AttributeError, ValueError):
         return None
+    return st.st_size - pos if stat.S_ISREG(st.st_mode) else None  # a pipe or device has no size to go by
 
 
 def _nbytes(shape, dtype) -> int:

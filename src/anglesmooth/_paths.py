@@ -145,10 +145,13 @@ def _ident(st: os.stat_result) -> tuple[int, int]:
     return (st.st_dev, st.st_ino)
 
 
-def resolve_output(path: str | os.PathLike, what: str = "cannot write") -> Target:
-    """Resolve an output path and check that it can be written (raises :class:`MeshWriteError`)."""
+def resolve_output(path: str | os.PathLike, what: str = "cannot write", *, stdio: bool = False) -> Target:
+    """Resolve an output path and check that it can be written (raises :class:`MeshWriteError`).
+
+    With ``stdio`` (the command line), ``-`` is stdout; otherwise it is a file named ``-``.
+    """
     given = os.fspath(path)
-    if given == STDIO:
+    if given == STDIO and stdio:
         target = Target(given="<stdout>", kind="stdout", fd=1, what=what)
         if std_fd_closed(1):
             raise target.error("stdout is closed")
@@ -189,7 +192,7 @@ def resolve_output(path: str | os.PathLike, what: str = "cannot write") -> Targe
         raise target.error("it is a directory")
     parent = real.parent
     if not parent.exists():
-        raise target.error(f"directory '{Path(given).absolute().parent}' does not exist")
+        raise target.error(f"directory '{Path(given).parent}' does not exist")
     if not parent.is_dir():
         raise target.error(f"'{parent}' is not a directory")
     target.path = real
@@ -239,7 +242,7 @@ def check_outputs(outputs: Mapping[str, str | None], inputs: Iterable[tuple[str,
     """
     what = dict(what or {})
     allowed = set(may_replace_input)
-    targets = {label: resolve_output(path, what.get(label, "cannot write"))
+    targets = {label: resolve_output(path, what.get(label, "cannot write"), stdio=True)
                for label, path in outputs.items() if path is not None}
     ins = [(label, path, *_input_ident(path)) for label, path in inputs if path is not None]
     for label, t in targets.items():
@@ -449,7 +452,7 @@ def _signals_deferred():
             if callable(handler):
                 handler(sig, frame)
             elif handler == signal.SIG_DFL:
-                raise KeyboardInterrupt
+                os.kill(os.getpid(), sig)
 
 
 @dataclass
