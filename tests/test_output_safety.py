@@ -569,6 +569,28 @@ def test_absurd_counts_in_text_formats_are_refused_in_bounded_memory(tmp_path, n
     assert "SizeLimitError" in line and "out of memory" not in line
 
 
+@pytest.mark.parametrize("fmt", ["msh22-binary", "vtk-binary"])
+def test_absurd_counts_in_binary_headers_are_refused_in_bounded_memory(tmp_path, fmt):
+    m = random_delaunay(600, seed=6)
+    mm = meshio.Mesh(np.column_stack([m.points, np.zeros(m.n_points)]), [("triangle", m.triangles)])
+    if fmt == "msh22-binary":
+        path = tmp_path / "b.msh"
+        meshio.gmsh.write(str(path), mm, fmt_version="2.2", binary=True)
+        old, new = f"$Nodes\n{m.n_points}\n".encode(), b"$Nodes\n300000000\n"
+    else:
+        path = tmp_path / "b.vtk"
+        meshio.vtk.write(str(path), mm, binary=True)
+        old, new = f"POINTS {m.n_points} ".encode(), b"POINTS 300000000 "
+    data = path.read_bytes()
+    assert data.count(old) == 1
+    path.write_bytes(data.replace(old, new))
+    p = subprocess.run([sys.executable, "-m", "anglesmooth", "check", str(path)], capture_output=True, env=env(),
+                       preexec_fn=_limited, timeout=120)
+    assert p.returncode == 3
+    line = error_line(p.stderr.decode())
+    assert "SizeLimitError" in line and "out of memory" not in line
+
+
 def test_xdmf_hdf5_dataset_of_absurd_size_is_refused(tmp_path):
     import h5py
 
