@@ -7,6 +7,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+import click
 import numpy as np
 
 from .. import _paths
@@ -14,6 +15,8 @@ from ..errors import AngleSmoothError, MeshReadError
 from .errors import EXIT_INPUT, Usage
 
 STDIO = "-"
+#: ``ctx.meta`` key of the configuration file in use (set by ``main.configure``): an input of every command.
+CONFIG_PATH = "anglesmooth.config_path"
 
 # meshio format name -> file suffix, for the temporary files behind stdin/stdout.
 _SUFFIX = {"gmsh": ".msh", "gmsh22": ".msh", "ansys": ".msh", "vtu": ".vtu", "vtk": ".vtk", "xdmf": ".xdmf",
@@ -83,7 +86,7 @@ def write_mesh(mesh, path: str, points: np.ndarray, file_format: str | None) -> 
 
 
 def check_paths(input, output, *, force, in_place, input_format, output_format, json_path, plot=None,
-                fix_nodes=None, gate_file=None) -> tuple[str, _paths.Outputs]:
+                fix_nodes=None, gate_file=None, junit_path=None) -> tuple[str, _paths.Outputs]:
     """Validate INPUT / OUTPUT and the overwrite rules; return the output path and every output, checked."""
     if in_place:
         if output is not None:
@@ -99,7 +102,7 @@ def check_paths(input, output, *, force, in_place, input_format, output_format, 
         raise Usage("writing to stdout ('-') needs --output-format (e.g. --output-format vtu)")
     if output == STDIO and json_path == STDIO:
         raise Usage("OUTPUT '-' and --json - cannot both use stdout")
-    outs = plan_outputs({"OUTPUT": output, "--json": json_path, "--plot": plot},
+    outs = plan_outputs({"OUTPUT": output, "--json": json_path, "--plot": plot, "--junit-xml": junit_path},
                         [("INPUT", input), ("--fix-nodes", fix_nodes), ("--gate-file", gate_file)],
                         may_replace_input=("OUTPUT",) if force or in_place else ())
     return output, outs
@@ -107,7 +110,10 @@ def check_paths(input, output, *, force, in_place, input_format, output_format, 
 
 def plan_outputs(outputs: dict, inputs: list, may_replace_input=()) -> _paths.Outputs:
     """Every output of a command, resolved and checked against every input and each other (see _paths)."""
-    what = {"--json": "cannot write JSON report", "--plot": "cannot write plot"}
+    what = {"--json": "cannot write JSON report", "--plot": "cannot write plot", "--junit-xml": "cannot write JUnit XML"}
+    ctx = click.get_current_context(silent=True)
+    config = ctx.meta.get(CONFIG_PATH) if ctx is not None else None
+    inputs = [*inputs, ("the configuration file", str(config) if config is not None else None)]
     return _paths.Outputs.check(outputs, inputs, may_replace_input=may_replace_input, what=what)
 
 
