@@ -131,6 +131,8 @@ COLLISIONS = [
     ("compare-json-input", ["compare", "in.vtu", "--json", "sym.vtu"], "--json 'sym.vtu' is the same file as INPUT"),
     ("compare-plot-input", ["compare", "in.vtu", "--plot", "hard.vtu"], "--plot 'hard.vtu' is the same file as INPUT"),
     ("compare-json-plot", ["compare", "in.vtu", "--json", "a.png", "--plot", "a.png"], "are the same file"),
+    ("check-junit-input", ["check", "in.vtu", "--junit-xml", "hard.vtu"], "--junit-xml 'hard.vtu' is the same file"),
+    ("smooth-junit-json", ["in.vtu", "out.vtu", "--json", "r.x", "--junit-xml", "r.x"], "are the same file"),
 ]
 
 
@@ -142,6 +144,17 @@ def test_an_output_never_names_an_input_or_another_output(work, argv, needle, mo
     assert r.exit_code == 2, r.stderr
     assert needle in error_line(r.stderr)
     assert snapshot(work) == before  # nothing written, nothing replaced, no temporary file
+
+
+def test_an_output_never_names_the_configuration_file(work, monkeypatch):
+    monkeypatch.chdir(work)
+    (work / "pyproject.toml").write_text("[tool.anglesmooth.gates]\nmin_angle = 0.1\n")
+    before = snapshot(work)
+    for argv in (["check", "in.vtu", "--json", "pyproject.toml"], ["in.vtu", "out.vtu", "--plot", "pyproject.toml"]):
+        r = invoke(*argv)
+        assert r.exit_code == 2, r.stderr
+        assert "is the same file as the configuration file" in error_line(r.stderr)
+    assert snapshot(work) == before
 
 
 def test_force_still_allows_output_to_be_a_link_to_the_input(work, monkeypatch):
