@@ -232,7 +232,7 @@ def test_a_fifo_is_written_into(work, small):
         with open(fifo, "rb") as fh:
             got["data"] = fh.read()
 
-    t = threading.Thread(target=reader)
+    t = threading.Thread(target=reader, daemon=True)  # never blocks the test run's exit
     t.start()
     p = run_cli("in.vtu", "pipe.vtu", "-n", "3", cwd=work)
     t.join(60)
@@ -269,7 +269,7 @@ def test_library_write_streams_into_a_fifo_too(tmp_path):
     fifo = tmp_path / "f.vtu"
     os.mkfifo(fifo)
     got = {}
-    t = threading.Thread(target=lambda: got.setdefault("data", open(fifo, "rb").read()))
+    t = threading.Thread(target=lambda: got.setdefault("data", open(fifo, "rb").read()), daemon=True)
     t.start()
     write(random_delaunay(50, seed=1), fifo)
     t.join(30)

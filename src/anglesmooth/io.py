@@ -424,7 +424,8 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
     The original meshio mesh in ``mesh.source`` is written with only x, y of
     its points replaced; it is never modified.  The file appears complete or
     not at all: a temporary file in the target directory is written, synced
-    and renamed.
+    and renamed (a symlink is followed; a device, FIFO or socket is written
+    into, never replaced: see ``anglesmooth._paths``).
 
     Parameters
     ----------
