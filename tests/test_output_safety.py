@@ -550,6 +550,22 @@ def test_corrupt_binary_msh41_element_count_is_refused_in_bounded_memory(tmp_pat
     assert ok.returncode == 0, ok.stderr
 
 
+def test_corrupt_binary_msh41_node_tag_is_refused_in_bounded_memory(tmp_path):
+    """One node tag flipped to 10^9: meshio sizes ``np.full(max_tag + 1)`` by it (8 GB, written, so resident)."""
+    src = tmp_path / "good.msh"
+    _binary_msh41(src)
+    data = src.read_bytes()
+    at = data.index(b"$Nodes\n") + len(b"$Nodes\n") + 32 + 20  # header, first block header: first node tag
+    assert struct.unpack("<Q", data[at:at + 8]) == (1,)
+    bad = tmp_path / "bad.msh"
+    bad.write_bytes(data[:at] + struct.pack("<Q", 1_000_000_000) + data[at + 8:])
+    p = subprocess.run([sys.executable, "-m", "anglesmooth", "check", str(bad)], capture_output=True, env=env(),
+                       preexec_fn=_limited, timeout=120)
+    assert p.returncode == 3
+    line = error_line(p.stderr.decode())
+    assert "declares an array of 8,000,000,000 bytes" in line and "out of memory" not in line
+
+
 def _ascii(tmp_path, name, text) -> Path:
     (tmp_path / name).write_text(text)
     return tmp_path / name
