@@ -291,6 +291,18 @@ def test_in_place_follows_a_symlink_and_keeps_it(work, monkeypatch):
     assert digest(work / "t.vtu") == digest(work / "expected.vtu") != digest(work / "in.vtu")
 
 
+def test_a_dangling_symlink_creates_its_target(work, monkeypatch):
+    monkeypatch.chdir(work)
+    os.symlink("new.vtu", work / "dangling.vtu")
+    r = invoke("in.vtu", "dangling.vtu", "-q")
+    assert r.exit_code == 0, r.stderr
+    assert os.readlink(work / "dangling.vtu") == "new.vtu" and (work / "new.vtu").is_file()
+    os.symlink("/nonexistent-dir/x.vtu", work / "nowhere.vtu")
+    r = invoke("in.vtu", "nowhere.vtu")
+    assert r.exit_code == 3
+    assert "directory '/nonexistent-dir' does not exist" in error_line(r.stderr)
+
+
 @needs_root
 def test_replacing_keeps_owner_group_and_mode_without_setuid(work, monkeypatch):
     monkeypatch.chdir(work)

@@ -192,7 +192,8 @@ def resolve_output(path: str | os.PathLike, what: str = "cannot write", *, stdio
         raise target.error("it is a directory")
     parent = real.parent
     if not parent.exists():
-        raise target.error(f"directory '{Path(given).parent}' does not exist")
+        shown = parent if os.path.islink(given) else Path(given).parent  # a dangling link: where it points
+        raise target.error(f"directory '{shown}' does not exist")
     if not parent.is_dir():
         raise target.error(f"'{parent}' is not a directory")
     target.path = real
