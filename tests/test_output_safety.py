@@ -446,6 +446,18 @@ def test_closed_and_full_streams_are_ordinary_errors(work, cmd, code, needle):
     assert snapshot(work) == before
 
 
+def test_closed_or_read_only_stderr_keeps_the_exit_codes(work):
+    """With stderr closed (or, through a shell wrapper, left open read-only) messages are dropped, codes stay."""
+    py = sys.executable
+    for redirect in ("2>&-", "2</dev/null"):
+        for cmd, code in ((f"'{py}' -m anglesmooth in.vtu o.vtu -n 1", 0), (f"'{py}' -m anglesmooth check nope.vtu", 3),
+                          (f"'{py}' -m anglesmooth in.vtu - --output-format vtu -n 1 -q", 0)):
+            p = subprocess.run(["bash", "-c", f"{cmd} {redirect}"], cwd=work, capture_output=True, env=env(),
+                               timeout=120)
+            assert p.returncode == code, (cmd, redirect)
+    assert (work / "o.vtu").exists()
+
+
 # --------------------------------------------------------------------------- 6. all outputs or none
 
 

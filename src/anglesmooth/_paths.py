@@ -106,15 +106,22 @@ def mark_closed_std_fds() -> set[int]:
     Returns (and remembers, for :func:`std_fd_closed`) the descriptors that were closed.  Called by
     the command line at start-up.
     """
+    import fcntl
+
     for fd in (0, 1, 2):
         try:
-            os.fstat(fd)
+            mode = fcntl.fcntl(fd, fcntl.F_GETFL) & os.O_ACCMODE
         except OSError:
-            _CLOSED_STD.add(fd)
-            new = os.open(os.devnull, os.O_RDWR)
-            if new != fd:  # pragma: no cover - only if a lower descriptor was closed meanwhile
-                os.dup2(new, fd)
-                os.close(new)
+            usable = False
+        else:  # a descriptor open the wrong way is as good as closed (a shell wrapper's script left on fd 2)
+            usable = mode != (os.O_WRONLY if fd == 0 else os.O_RDONLY)
+        if usable:
+            continue
+        _CLOSED_STD.add(fd)
+        new = os.open(os.devnull, os.O_RDWR)
+        if new != fd:
+            os.dup2(new, fd)
+            os.close(new)
     return set(_CLOSED_STD)
 
 
