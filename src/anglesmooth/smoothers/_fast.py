@@ -178,13 +178,17 @@ def local_scale(points: np.ndarray, topo, blk, subset: np.ndarray | None = None)
     return _run(_k().ring_mean, points, nodes, topo.free_nodes, rp, topo.ring_nbr, True)[:, 0]
 
 
-def angle_choose(points: np.ndarray, topo, blk, good: float):
-    """Stages 1 and 2 of the robust ``angle`` update, fused per node (see :func:`.angle.step`)."""
+def angle_choose(points: np.ndarray, topo, blk, good):
+    """Stages 1 and 2 of the robust ``angle`` update, fused per node (see :func:`.angle.step`).
+
+    ``good``: the acceptance score threshold, one per block node or one for all.
+    """
     rp, sp, tp, qp = _csr(topo)
+    good = np.ascontiguousarray(np.broadcast_to(np.asarray(good, dtype=np.float64), (blk.size,)))
     return _run(
         _k().angle_choose,
         points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,
-        rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, float(good),
+        rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, good,
     )
 
 

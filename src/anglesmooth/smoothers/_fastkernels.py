@@ -202,7 +202,8 @@ def ring_mean(pts, nodes, free, rp, nbr, lengths):
 def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good):
     """Stages 1 and 2 of the robust ``angle`` update (``angle.step``), fused per node.
 
-    Returns the chosen positions, their scores and whether the angle position was invalid.
+    ``good`` is the per-node acceptance threshold.  Returns the chosen positions, their scores and
+    whether the angle position was invalid.
     """
     n = nodes.shape[0]
     new = np.empty((n, 2))
@@ -210,29 +211,28 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
     refused = np.zeros(n, np.bool_)
     for i in prange(n):
         f = nodes[i]
-        cx, cy = pts[free[f], 0], pts[free[f], 1]
         ax, ay = _node_angle(pts, f, free, sp, ring, sa, sb, frac)
         s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv)
-        s_c = _node_score(pts, cx, cy, f, tp, tv, qp, qv)
         refused[i] = s_a <= INVALID + 0.5
-        if s_a >= s_c and s_a >= good:
+        if s_a >= good[i]:
             new[i, 0], new[i, 1], best[i] = ax, ay, s_a
             continue
         # candidates in the numpy order: A, L, (A + L) / 2, (A + C) / 2, C; the first best wins
+        cx, cy = pts[free[f], 0], pts[free[f], 1]
         lx, ly = _node_ring_mean(pts, f, free, rp, nbr, False)
         bx, by, bs = ax, ay, s_a
-        for k in range(3):
+        for k in range(4):
             if k == 0:
                 px, py = lx, ly
             elif k == 1:
                 px, py = 0.5 * (ax + lx), 0.5 * (ay + ly)
-            else:
+            elif k == 2:
                 px, py = 0.5 * (ax + cx), 0.5 * (ay + cy)
+            else:
+                px, py = cx, cy
             sk = _node_score(pts, px, py, f, tp, tv, qp, qv)
             if sk > bs:
                 bx, by, bs = px, py, sk
-        if s_c > bs:
-            bx, by, bs = cx, cy, s_c
         new[i, 0], new[i, 1], best[i] = bx, by, bs
     return new, best, refused
 

@@ -77,6 +77,22 @@ from ._local import INVALID, angle_target, first_valid, geometry, laplacian_targ
 __all__ = ["step"]
 
 
+def _per_node(topo: Topology, blk, tri_deg: float, quad_deg: float) -> np.ndarray:
+    """Score threshold of each block node: ``tri_deg`` for nodes of triangles only, ``quad_deg`` for nodes of a quad.
+
+    Thresholds relative to the ideal angle (60 deg for triangles, 90 for quads) mean the same for
+    both; a node with both kinds of cell uses the quad's (its quad corners are the ones judged on
+    ``min(angle, 180 - angle)``).  Cached per block (topology only).
+    """
+    key = ("angle-thresholds", blk.nodes.start, blk.nodes.stop, float(tri_deg), float(quad_deg))
+    hit = topo._cache.get(key)
+    if hit is None:
+        hasq = np.bincount(topo.quad_loc[blk.quads] - blk.nodes.start, minlength=blk.size) > 0
+        lo, hi = -np.cos(np.radians(tri_deg)), -np.cos(np.radians(quad_deg))
+        hit = topo._cache[key] = np.where(hasq, hi, lo)
+    return hit
+
+
 def step(
     points: np.ndarray,
     topo: Topology,
@@ -89,7 +105,9 @@ def step(
     opt_iterations: int = 3,
     area_band: float | None = 0.8,
     opt_below: float = 40.0,
+    opt_below_quad: float = 60.0,
     accept_above: float = 20.0,
+    accept_above_quad: float = 20.0,
 ) -> StepResult:
     """One angle-based pass.
 
@@ -101,49 +119,51 @@ def step(
     hybrid : bool
         With ``guard``: choose among candidates and optimize the worst nodes
         (default).  False: only halve/refuse moves that would invalidate a cell.
-    opt_fraction, opt_iterations, opt_below : float, int, float
+    accept_above, accept_above_quad : float
+        A node takes its angle position when the local quality there (its
+        incident cells' smallest angle; quad corners ``min(angle, 180 - angle)``)
+        is at least this many degrees -- ``accept_above`` for a node of
+        triangles only, ``accept_above_quad`` for a node of a quad: a third of
+        the ideal angle (60, 90) for both.  Below it, the node chooses among
+        five candidates.  180 makes every node choose.
+    opt_fraction, opt_iterations, opt_below, opt_below_quad : float, int, float, float
         Share of each colour class that gets local optimization, its number of
-        steps, and the local quality (degrees) a node must be below to get it:
+        steps, and the local quality (degrees; triangle-only nodes / quad nodes,
+        two thirds of the ideal angle) a node must be below to get it:
         optimizing nodes that are already good only moves them along plateaus
-        of the max-min objective (sheared quads) and keeps a disturbed regular
-        mesh from returning to its place.
-    accept_above : float
-        A node whose angle position is no worse than staying and whose local
-        quality there is at least this many degrees takes it without trying
-        the other candidates (measured on the paper-style meshes: the same
-        quality as always trying all five, at a lower cost); 180 disables it.
+        of the max-min objective and keeps a disturbed regular mesh from
+        returning to its place.
     area_band : float or None
         During that optimization a node's smallest incident cell keeps at least
         ``area_band`` of its area and its largest grows at most ``1/area_band``
         (see :func:`._local.optimize`); None lets the angle alone decide.
     """
 
-    good_score = -np.cos(np.radians(accept_above))
     fast = guard and hybrid and _fast.active(topo)
 
     def choose(pts, blk, cur, geom):
         """Stages 1 and 2: (positions, their local scores, number of invalid angle positions)."""
+        good = _per_node(topo, blk, accept_above, accept_above_quad)
         if fast:  # the same choice, fused per node in a compiled loop
-            new, best, refused = _fast.angle_choose(pts, topo, blk, good_score)
+            new, best, refused = _fast.angle_choose(pts, topo, blk, good)
             return new, best, int(refused.sum())
         target = angle_target(pts, topo, blk)
-        s_ac = geom.score(np.stack([target, cur]))
-        refused = int((s_ac[0] <= INVALID + 0.5).sum())
-        # stage 1: where the angle position is no worse than staying and already good, take it
-        take = (s_ac[0] >= s_ac[1]) & (s_ac[0] >= good_score)
-        new = np.where(take[:, None], target, cur)
-        best = np.where(take, s_ac[0], s_ac[1])
-        rest = np.flatnonzero(~take)
+        s_a = geom.score(target)
+        refused = int((s_a <= INVALID + 0.5).sum())
+        # stage 1: where the angle position is good enough, take it (even when staying scores higher)
+        new, best = target, s_a
+        rest = np.flatnonzero(s_a < good)
         if rest.size:
             # stage 2: the others choose among all five candidates (the first best wins)
             lap = laplacian_target(pts, topo, blk)[rest]
             t, c = target[rest], cur[rest]
             sub = geom if rest.size == blk.size else geom.restrict(rest)
-            extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c)])
-            s = np.concatenate([s_ac[:1, rest], sub.score(extra), s_ac[1:, rest]])
-            cands = np.concatenate([t[None], extra, c[None]])
+            extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c), c])
+            s = np.concatenate([s_a[None, rest], sub.score(extra)])
+            cands = np.concatenate([t[None], extra])
             k = np.argmax(s, axis=0)
             idx = np.arange(rest.size)
+            new, best = target.copy(), s_a.copy()
             new[rest], best[rest] = cands[k, idx], s[k, idx]
         return new, best, refused
 
@@ -159,7 +179,8 @@ def step(
         n_opt = int(np.ceil(opt_fraction * blk.size)) if opt_iterations > 0 else 0
         if n_opt:
             worst = np.argpartition(best, n_opt - 1)[:n_opt] if n_opt < blk.size else idx
-            worst = np.sort(worst[best[worst] < -np.cos(np.radians(opt_below))])
+            below = _per_node(topo, blk, opt_below, opt_below_quad)
+            worst = np.sort(worst[best[worst] < below[worst]])
         if n_opt and worst.size:
             sub = geom.restrict(worst)
             scale = local_scale(pts, topo, blk, subset=worst)
