@@ -31,10 +31,14 @@ def _kernel(fn):
 
 
 @njit(inline="always")
-def _node_score(pts, px, py, f, tp, tv, qp, qv):
-    """``BlockGeometry.score`` for one node (free index ``f``) at (px, py): ``_tri_chunk`` / ``_quad_chunk``."""
+def _node_score(pts, px, py, f, tp, tv, qp, qv, fl):
+    """``BlockGeometry.score`` for one node (free index ``f``) at (px, py): ``_tri_chunk`` / ``_quad_chunk``.
+
+    ``fl``: the input floors (``_local.Floors``) as a (6, rows) array, or an empty one (no floors).
+    """
     best = np.inf
     bad = 0.0
+    floors = fl.shape[0] > 0
     for r in range(tp[f], tp[f + 1]):
         i1, i2 = tv[r, 1], tv[r, 2]
         x1, y1, x2, y2 = pts[i1, 0], pts[i1, 1], pts[i2, 0], pts[i2, 1]
@@ -48,9 +52,13 @@ def _node_score(pts, px, py, f, tp, tv, qp, qv):
         v1 = (ux * ex1 + uy * ey1) / (l12 * l1)
         v2 = (fx2 * ux + fy2 * uy) / (l2 * l12)
         v = min(v0, v1, v2)
+        cr = ex1 * fy2 - ey1 * fx2
+        okf = True
+        if floors:
+            okf = (-cr >= fl[0, r]) & (l1 >= fl[1, r]) & (l2 >= fl[2, r])
         # valid: corner cross product < 0 and np.minimum(v0, v1, v2) finite (a NaN propagates there);
         # bitwise & keeps the test free of branches
-        if (ex1 * fy2 - ey1 * fx2 < 0) & (v0 == v0) & (v1 == v1) & (v2 == v2) & (abs(v) < np.inf):
+        if (cr < 0) & okf & (v0 == v0) & (v1 == v1) & (v2 == v2) & (abs(v) < np.inf):
             best = min(best, v)
         else:
             ex2, ey2 = x2 - px, y2 - py
@@ -77,6 +85,9 @@ def _node_score(pts, px, py, f, tp, tv, qp, qv):
         # valid: the three corner cross products > 0, corner 2 valid, and every |cos| finite
         # (x < inf is False for NaN and inf; np.maximum would propagate either)
         ok = (ex1 * ey3 - ey1 * ex3 > 0) & (uy * ex1 - ux * ey1 > 0) & (ex3 * vy - ey3 * vx > 0) & ok2
+        if floors:
+            a2 = (x1 + ux - px) * (y3 - y1) - (y1 + uy - py) * (x3 - x1)
+            ok = ok & (a2 >= fl[3, r]) & (l1 >= fl[4, r]) & (l3 >= fl[5, r])
         if ok & (a0 < np.inf) & (a1 < np.inf) & (a3 < np.inf):
             best = min(best, -cm)
         else:
@@ -111,13 +122,13 @@ def _node_area_range(pts, px, py, f, tp, tv, qp, qv):
 
 
 @_kernel
-def score(pts, X, nodes, tp, tv, qp, qv):
+def score(pts, X, nodes, tp, tv, qp, qv, fl):
     K, n = X.shape[0], X.shape[1]
     out = np.empty((K, n))
     for i in prange(n):
         f = nodes[i]
         for k in range(K):
-            out[k, i] = _node_score(pts, X[k, i, 0], X[k, i, 1], f, tp, tv, qp, qv)
+            out[k, i] = _node_score(pts, X[k, i, 0], X[k, i, 1], f, tp, tv, qp, qv, fl)
     return out
 
 
@@ -199,7 +210,7 @@ def ring_mean(pts, nodes, free, rp, nbr, lengths):
 
 
 @_kernel
-def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good):
+def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good, fl):
     """Stages 1 and 2 of the robust ``angle`` update (``angle.step``), fused per node.
 
     ``good`` is the per-node acceptance threshold.  Returns the chosen positions, their scores and
@@ -212,7 +223,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
     for i in prange(n):
         f = nodes[i]
         ax, ay = _node_angle(pts, f, free, sp, ring, sa, sb, frac)
-        s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv)
+        s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv, fl)
         refused[i] = s_a <= INVALID + 0.5
         if s_a >= good[i]:
             new[i, 0], new[i, 1], best[i] = ax, ay, s_a
@@ -230,7 +241,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
                 px, py = 0.5 * (ax + cx), 0.5 * (ay + cy)
             else:
                 px, py = cx, cy
-            sk = _node_score(pts, px, py, f, tp, tv, qp, qv)
+            sk = _node_score(pts, px, py, f, tp, tv, qp, qv, fl)
             if sk > bs:
                 bx, by, bs = px, py, sk
         new[i, 0], new[i, 1], best[i] = bx, by, bs
@@ -238,7 +249,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
 
 
 @_kernel
-def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, directions):
+def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, directions, fl):
     """``optimize``: compass search per node, optionally within an area band (``band`` < 0: none)."""
     n = nodes.shape[0]
     out = np.empty((n, 2))
@@ -246,7 +257,7 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
     for i in prange(n):
         f = nodes[i]
         px, py = x[i, 0], x[i, 1]
-        s0 = _node_score(pts, px, py, f, tp, tv, qp, qv)
+        s0 = _node_score(pts, px, py, f, tp, tv, qp, qv, fl)
         lo0 = hi0 = 0.0
         if band >= 0:
             lo0, hi0 = _node_area_range(pts, px, py, f, tp, tv, qp, qv)
@@ -259,9 +270,9 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
                 qx, qy = px + directions[c, 0] * r, py + directions[c, 1] * r
                 if band >= 0:
                     lo, hi = _node_area_range(pts, qx, qy, f, tp, tv, qp, qv)
-                    sc = _node_score(pts, qx, qy, f, tp, tv, qp, qv) if lo >= lo0 and hi <= hi0 else -np.inf
+                    sc = _node_score(pts, qx, qy, f, tp, tv, qp, qv, fl) if lo >= lo0 and hi <= hi0 else -np.inf
                 else:
-                    sc = _node_score(pts, qx, qy, f, tp, tv, qp, qv)
+                    sc = _node_score(pts, qx, qy, f, tp, tv, qp, qv, fl)
                 if c == 0 or sc > bs:  # np.argmax: the first best
                     bx, by, bs = qx, qy, sc
             if bs > s0:

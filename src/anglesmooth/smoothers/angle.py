@@ -72,7 +72,7 @@ import numpy as np
 from ..topology import Topology
 from . import _fast
 from ._blocks import StepResult, run_blocks
-from ._local import INVALID, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
+from ._local import INVALID, Floors, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
 
 __all__ = ["step"]
 
@@ -108,6 +108,8 @@ def step(
     opt_below_quad: float = 60.0,
     accept_above: float = 20.0,
     accept_above_quad: float = 20.0,
+    stage2: str = "full",
+    floors: Floors | None = None,
 ) -> StepResult:
     """One angle-based pass.
 
@@ -133,6 +135,9 @@ def step(
         optimizing nodes that are already good only moves them along plateaus
         of the max-min objective and keeps a disturbed regular mesh from
         returning to its place.
+    floors : :class:`._local.Floors` or None
+        Input floors of the guard (see :func:`._local.input_floors`; the
+        driver passes them).
     area_band : float or None
         During that optimization a node's smallest incident cell keeps at least
         ``area_band`` of its area and its largest grows at most ``1/area_band``
@@ -144,8 +149,8 @@ def step(
     def choose(pts, blk, cur, geom):
         """Stages 1 and 2: (positions, their local scores, number of invalid angle positions)."""
         good = _per_node(topo, blk, accept_above, accept_above_quad)
-        if fast:  # the same choice, fused per node in a compiled loop
-            new, best, refused = _fast.angle_choose(pts, topo, blk, good)
+        if fast and stage2 == 'full':  # the same choice, fused per node in a compiled loop
+            new, best, refused = _fast.angle_choose(pts, topo, blk, good, floors)
             return new, best, int(refused.sum())
         target = angle_target(pts, topo, blk)
         s_a = geom.score(target)
@@ -158,7 +163,7 @@ def step(
             lap = laplacian_target(pts, topo, blk)[rest]
             t, c = target[rest], cur[rest]
             sub = geom if rest.size == blk.size else geom.restrict(rest)
-            extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c), c])
+            extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c), c]) if stage2 == "full" else np.stack([lap, c])
             s = np.concatenate([s_a[None, rest], sub.score(extra)])
             cands = np.concatenate([t[None], extra])
             k = np.argmax(s, axis=0)
@@ -170,7 +175,7 @@ def step(
     def update(pts, blk, cur):
         if not guard:
             return angle_target(pts, topo, blk), 0
-        geom = geometry(pts, topo, blk)
+        geom = geometry(pts, topo, blk, floors)
         if not hybrid:
             new, refused = first_valid(geom, cur, angle_target(pts, topo, blk))
             return new, refused.sum()
