@@ -108,7 +108,6 @@ def step(
     opt_below_quad: float = 60.0,
     accept_above: float = 20.0,
     accept_above_quad: float = 20.0,
-    stage2: str = "full",
     floors: Floors | None = None,
 ) -> StepResult:
     """One angle-based pass.
@@ -149,7 +148,7 @@ def step(
     def choose(pts, blk, cur, geom):
         """Stages 1 and 2: (positions, their local scores, number of invalid angle positions)."""
         good = _per_node(topo, blk, accept_above, accept_above_quad)
-        if fast and stage2 == 'full':  # the same choice, fused per node in a compiled loop
+        if fast:  # the same choice, fused per node in a compiled loop
             new, best, refused = _fast.angle_choose(pts, topo, blk, good, floors)
             return new, best, int(refused.sum())
         target = angle_target(pts, topo, blk)
@@ -163,7 +162,7 @@ def step(
             lap = laplacian_target(pts, topo, blk)[rest]
             t, c = target[rest], cur[rest]
             sub = geom if rest.size == blk.size else geom.restrict(rest)
-            extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c), c]) if stage2 == "full" else np.stack([lap, c])
+            extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c), c])
             s = np.concatenate([s_a[None, rest], sub.score(extra)])
             cands = np.concatenate([t[None], extra])
             k = np.argmax(s, axis=0)
