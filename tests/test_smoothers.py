@@ -250,6 +250,29 @@ def test_vectorized_matches_per_node_reference(method, guard, gen_name):
     np.testing.assert_allclose(p, q, rtol=0, atol=1e-9 * np.ptp(mesh.points))
 
 
+@pytest.mark.parametrize("free_corners", [((2.45, 0.02), (2.55, 0.021)), ((2.4, 0.03), (2.6, 0.02))])
+def test_stuck_nodes_take_the_guarded_laplacian_move_as_the_reference_does(free_corners, monkeypatch):
+    """A quad flattened onto the boundary with its free corners almost touching: every full or half
+    move of either is invalid, so the default takes the halved Laplacian move (stage 3)."""
+    import anglesmooth.smoothers.angle as angle_mod
+
+    m = generate.structured_quads(5, 4)
+    p = m.points.copy()
+    for (x, y), new in zip(((2, 1), (3, 1)), free_corners):
+        p[int(np.flatnonzero(np.hypot(p[:, 0] - x, p[:, 1] - y) < 1e-9)[0])] = new
+    mesh = m.with_points(p)
+    topo = build_topology(mesh)
+    calls = []
+    real = angle_mod.first_valid
+    monkeypatch.setattr(angle_mod, "first_valid", lambda *a, **k: calls.append(1) or real(*a, **k))
+    q = r = mesh.points
+    for _ in range(3):
+        q = get_smoother("angle").step(q, topo, opt_iterations=0).points
+        r = reference_pass(r, topo, "angle")
+    assert calls  # stage 3 was reached
+    np.testing.assert_allclose(q, r, rtol=0, atol=1e-9 * np.ptp(mesh.points))
+
+
 def test_jacobi_angle_matches_reference_single_node():
     """With one free node, colour and Jacobi orders coincide with the reference."""
     mesh = generate.five_element_polygon(center=(0.3, 0.2))

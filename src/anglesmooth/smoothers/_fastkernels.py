@@ -232,6 +232,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
         cx, cy = pts[free[f], 0], pts[free[f], 1]
         lx, ly = _node_ring_mean(pts, f, free, rp, nbr, False)
         bx, by, bs = ax, ay, s_a
+        stuck = s_a <= INVALID + 0.5
         for k in range(4):
             if k == 0:
                 px, py = lx, ly
@@ -242,8 +243,22 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
             else:
                 px, py = cx, cy
             sk = _node_score(pts, px, py, f, tp, tv, qp, qv, fl)
+            if k < 3:
+                stuck = stuck & (sk <= INVALID + 0.5)
+            elif stuck:
+                stuck = sk > INVALID + 0.5  # staying is valid
             if sk > bs:
                 bx, by, bs = px, py, sk
+        if stuck:  # stage 3, ``first_valid``: the Laplacian move, halved until valid (else staying)
+            dx, dy = lx - cx, ly - cy
+            fr = 1.0
+            for _ in range(7):
+                px, py = cx + fr * dx, cy + fr * dy
+                sk = _node_score(pts, px, py, f, tp, tv, qp, qv, fl)
+                if sk > INVALID + 0.5:
+                    bx, by, bs = px, py, sk
+                    break
+                fr *= 0.5
         new[i, 0], new[i, 1], best[i] = bx, by, bs
     return new, best, refused
 

@@ -169,6 +169,14 @@ def step(
             idx = np.arange(rest.size)
             new, best = target.copy(), s_a.copy()
             new[rest], best[rest] = cands[k, idx], s[k, idx]
+            # stage 3: where every move (full or half) is invalid and staying is not, the guarded
+            # Laplacian move (halved until valid): the way out of a flattened cell whose free
+            # corners block each other
+            stuck = np.flatnonzero((s[:4] <= INVALID + 0.5).all(axis=0) & (s[4] > INVALID + 0.5))
+            if stuck.size:
+                g3 = sub.restrict(stuck)
+                x, _ = first_valid(g3, c[stuck], lap[stuck])
+                new[rest[stuck]], best[rest[stuck]] = x, g3.score(x)
         return new, best, refused
 
     def update(pts, blk, cur):
