@@ -100,7 +100,7 @@ def test_input_floors_same_result_with_either_kernel(method, monkeypatch):
     from anglesmooth.smoothers._local import input_floors
 
     mesh = thin_layers()
-    assert input_floors(mesh.points, build_topology(mesh)) is not None
+    assert input_floors(mesh.points, build_topology(mesh)).active
     out = []
     for mode in ("numpy", "numba"):
         monkeypatch.setenv("ANGLESMOOTH_KERNEL", mode)

@@ -398,7 +398,7 @@ def test_guarded_methods_keep_boundary_layer_cells_from_collapsing(method, bl_me
     mesh = bl_mesh
     topo = build_topology(mesh)
     p0 = mesh.points
-    assert topo.n_quad > 100 and input_floors(p0, topo) is not None
+    assert topo.n_quad > 100 and input_floors(p0, topo).active
     e = topo.edges
 
     def edges(p):

@@ -210,10 +210,11 @@ def ring_mean(pts, nodes, free, rp, nbr, lengths):
 
 
 @_kernel
-def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good, fl):
+def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good, fl, keep):
     """Stages 1 and 2 of the robust ``angle`` update (``angle.step``), fused per node.
 
-    ``good`` is the per-node acceptance threshold.  Returns the chosen positions, their scores and
+    ``good`` is the per-node acceptance threshold; where ``keep`` (empty: nowhere) the angle position
+    must also be no worse than staying.  Returns the chosen positions, their scores and
     whether the angle position was invalid.
     """
     n = nodes.shape[0]
@@ -225,11 +226,14 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
         ax, ay = _node_angle(pts, f, free, sp, ring, sa, sb, frac)
         s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv, fl)
         refused[i] = s_a <= INVALID + 0.5
-        if s_a >= good[i]:
+        cx, cy = pts[free[f], 0], pts[free[f], 1]
+        take = s_a >= good[i]
+        if take and keep.shape[0] > 0 and keep[i]:
+            take = s_a >= _node_score(pts, cx, cy, f, tp, tv, qp, qv, fl)
+        if take:
             new[i, 0], new[i, 1], best[i] = ax, ay, s_a
             continue
         # candidates in the numpy order: A, L, (A + L) / 2, (A + C) / 2, C; the first best wins
-        cx, cy = pts[free[f], 0], pts[free[f], 1]
         lx, ly = _node_ring_mean(pts, f, free, rp, nbr, False)
         bx, by, bs = ax, ay, s_a
         stuck = s_a <= INVALID + 0.5

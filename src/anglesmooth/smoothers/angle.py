@@ -36,22 +36,64 @@ The paper's rule, as implemented (``guard=False``)
 
 The robust default (``guard=True``)
     The literal rule can invert cells on strongly graded meshes and end worse
-    than Laplacian there.  By default each node, with its colour class (nodes
-    of one class share no cell, so this test is exact), takes its angle
-    position A if that is no worse than staying and its incident cells' local
-    quality there is at least ``accept_above`` (20) degrees; otherwise it
-    chooses among five candidates -- A, the Laplacian position L, (A+L)/2,
-    the half step (C+A)/2 and its current position C -- the one whose incident
-    cells have the best local quality (smallest angle; for quads
-    ``min(angle, 180 - angle)``) and no inverted, degenerate or non-convex
-    cell.  Then the worst ``opt_fraction`` of the class's nodes
-    (lowest local score) take ``opt_iterations`` steps of the local
-    max-min-angle optimization (see :mod:`.optimization`), constrained so that
-    no incident cell shrinks below 0.8 or grows beyond 1/0.8 of its area: the
-    hybrid of Freitag (1997) and Canann, Tristano & Staten (1998).  The score
-    of a quad corner is ``min(angle, 180 - angle)`` (see :mod:`._local`).  Since C is always a
-    candidate, the local minimum angle of a node never decreases, so neither
-    does the mesh's minimum angle, and no cell is ever inverted.
+    than Laplacian there; a guard that only ever accepts improvements gets
+    stuck instead.  The default does, per colour class (nodes of one class
+    share no cell, so every test below is exact):
+
+    1. *Angle position where it is good enough.*  The node takes its angle
+       position A when the local quality there (the smallest angle of its
+       incident cells; quad corners count ``min(angle, 180 - angle)``) is at
+       least ``accept_above`` (20 deg) -- whether or not staying would score
+       higher.  This is most nodes of a decent mesh, and it is what keeps the
+       paper's size uniformity.  Nodes whose input cells were all well shaped
+       (quad corners within 30 deg of a right angle, triangle corners >= 40
+       deg, or a stretched well-shaped quad: see
+       :func:`._local.input_floors`) take it only if it is also no worse than
+       staying, so the good parts of a mesh never get worse.
+    2. *Otherwise the best of five*: A, the Laplacian position L, (A+L)/2,
+       (A+C)/2 and the current position C, by local quality, no candidate
+       with an inverted, degenerate or non-convex cell (C is one of them).
+    3. *Stuck nodes*: where all four moves are invalid and staying is not,
+       the guarded Laplacian move (halved until valid).  A quad flattened
+       onto the boundary whose two free corners block each other gets out
+       only this way (every single move of either corner is invalid).
+    4. *Local optimization of the worst*: the worst ``opt_fraction`` (5 %)
+       of the class, if below ``opt_below`` (40 deg; 60 deg at a node of a
+       quad: two thirds of the ideal angle, so that quads are not left at 40
+       deg), take ``opt_iterations`` (3) compass-search steps of the local
+       max-min-angle optimization (see :mod:`.optimization`), keeping every
+       incident cell within [0.8, 1/0.8] of its area: the hybrid of Freitag
+       (1997) and Canann, Tristano & Staten (1998).
+
+    Why not "take A only if it is no worse than staying" (the former
+    default): that monotone acceptance is a local trap.  A sheared quad grid
+    gets better only through positions that are locally worse for a moment,
+    so jittered structured quad grids stopped at 48-59 deg where Laplacian
+    and the literal rule reach 90 deg, and on gmsh quad meshes the default
+    ended below Laplacian.  Thresholds are absolute angles for acceptance
+    (20 deg for quad nodes too: 30 deg, a third of the quad's ideal, raised
+    the paper-style mixed meshes' area ratio from 20 to 38 for 2 deg of
+    minimum angle on quads) and relative to the ideal angle for the
+    optimization (quad nodes: 60 instead of 40 deg, +1.3 deg minimum angle on
+    the toothed quad meshes).  Measured alternatives that did not pay:
+    choosing between A and L for every node by local quality (paper-style
+    tri area ratio 24.6, recombined quads no better), a quad corner score
+    normalized to the triangle scale (``(1 + |cos|) / 2``: -4 deg on the
+    toothed quad meshes), an area band relative to the node's mean cell area
+    (-2 to -11 deg), an area band of 0.85 or 0.9 (area ratio of paper-style
+    triangle meshes 13 / 12 instead of 17, but graded meshes 16.7 / 13.7
+    instead of 18.4 deg), fewer optimization steps or nodes (-1 to -3 deg).
+
+    Guarantees: no cell is ever inverted, made degenerate or (a quad) made
+    non-convex, and an already invalid neighbourhood never gets more invalid
+    cells (every candidate is checked exactly, and C is one of them); with
+    the driver's input floors no anisotropic cell shrinks below a quarter of
+    its input area or edge length.  *Not* guaranteed any more: that the
+    local minimum angle of a node never decreases, hence that the mesh's
+    minimum angle never decreases from one pass to the next (stages 1 and 3
+    may lower it on the way out of a trap; the nodes of well-shaped input
+    cells keep the monotone rule).  Figures: the quality matrix in README
+    and ``benchmarks/quality_matrix.py``.
 
 >>> import numpy as np
 >>> from anglesmooth.generate import structured_triangles
@@ -148,15 +190,25 @@ def step(
     def choose(pts, blk, cur, geom):
         """Stages 1 and 2: (positions, their local scores, number of invalid angle positions)."""
         good = _per_node(topo, blk, accept_above, accept_above_quad)
+        keep = None
+        if floors is not None:
+            keep = floors.keep[blk.nodes]
+            keep = keep if keep.any() else None
         if fast:  # the same choice, fused per node in a compiled loop
-            new, best, refused = _fast.angle_choose(pts, topo, blk, good, floors)
+            new, best, refused = _fast.angle_choose(pts, topo, blk, good, floors, keep)
             return new, best, int(refused.sum())
         target = angle_target(pts, topo, blk)
         s_a = geom.score(target)
         refused = int((s_a <= INVALID + 0.5).sum())
-        # stage 1: where the angle position is good enough, take it (even when staying scores higher)
+        # stage 1: where the angle position is good enough, take it (even when staying scores higher;
+        # nodes whose input cells were all well shaped only when it is no worse than staying)
         new, best = target, s_a
-        rest = np.flatnonzero(s_a < good)
+        take = s_a >= good
+        if keep is not None:
+            k = np.flatnonzero(keep & take)
+            if k.size:
+                take[k] = s_a[k] >= geom.restrict(k).score(cur[k])
+        rest = np.flatnonzero(~take)
         if rest.size:
             # stage 2: the others choose among all five candidates (the first best wins)
             lap = laplacian_target(pts, topo, blk)[rest]
