@@ -45,6 +45,7 @@ ANISO = 4.0
 KEEP_QUAD = 30.0
 KEEP_TRI = 40.0
 KEEP_STRETCH = 1.5
+KEEP_RECT = 15.0
 
 
 class Floors(NamedTuple):
@@ -99,14 +100,16 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
         # well shaped: every corner within KEEP_QUAD of a right angle (quads) or at least KEEP_TRI (triangles)
         with np.errstate(divide="ignore", invalid="ignore"):
             good = np.ones(verts.shape[0], bool)
+            rect = np.ones(verts.shape[0], bool)
             for m in range(k):
                 u, w = p[(m + 1) % k] - p[m], p[m - 1] - p[m]
                 c = _dot(u, w) / (e[m] * e[m - 1])
                 lim = np.cos(np.radians(90.0 - KEEP_QUAD)) if k == 4 else np.cos(np.radians(KEEP_TRI))
                 good &= ((np.abs(c) <= lim) if k == 4 else (c <= lim)) & (_cross(u, w) > 0)
+                rect &= (np.abs(c) <= np.cos(np.radians(90.0 - KEEP_RECT))) & (_cross(u, w) > 0)
         poor[loc[~good]] = True
         if k == 4:
-            keep_q[loc[good & (emax >= KEEP_STRETCH * emin)]] = True
+            keep_q[loc[rect & (emax >= KEEP_STRETCH * emin)]] = True
         f = np.where(an, fraction, 0.0)
         out += [f * np.abs(area2), f * e[0], f * e[k - 1]]
     if any_aniso:
