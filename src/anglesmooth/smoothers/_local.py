@@ -68,6 +68,33 @@ class Floors(NamedTuple):
         return self.packed.size > 0
 
 
+def _cell_shape(x: np.ndarray, y: np.ndarray, cells: np.ndarray):
+    """(edge lengths (k, n), well shaped (n,), near-rectangular (n,) or None) of (n, k) ccw cells.
+
+    Edge m runs from corner m to m + 1; well shaped: every corner within ``KEEP_QUAD`` of a right
+    angle (quads) or at least ``KEEP_TRI`` (triangles); near-rectangular: within ``KEEP_RECT``.
+    """
+    k = cells.shape[1]
+    px = [np.take(x, cells[:, m]) for m in range(k)]
+    py = [np.take(y, cells[:, m]) for m in range(k)]
+    ex = [px[(m + 1) % k] - px[m] for m in range(k)]
+    ey = [py[(m + 1) % k] - py[m] for m in range(k)]
+    e = np.array([np.sqrt(ex[m] * ex[m] + ey[m] * ey[m]) for m in range(k)])
+    good = np.ones(cells.shape[0], bool)
+    rect = np.ones(cells.shape[0], bool) if k == 4 else None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for m in range(k):
+            j = m - 1  # corner m lies between edge m and the reversed edge m - 1
+            cos = -(ex[m] * ex[j] + ey[m] * ey[j]) / (e[m] * e[j])
+            ok = ex[j] * ey[m] - ey[j] * ex[m] > 0
+            if k == 4:
+                good &= (np.abs(cos) <= np.cos(np.radians(90.0 - KEEP_QUAD))) & ok
+                rect &= (np.abs(cos) <= np.cos(np.radians(90.0 - KEEP_RECT))) & ok
+            else:
+                good &= (cos <= np.cos(np.radians(KEEP_TRI))) & ok
+    return e, good, rect
+
+
 def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, aniso: float = ANISO) -> Floors:
     """The floors that keep the anisotropic cells of the input ``points`` from collapsing, or None.
 
@@ -85,40 +112,53 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
     (measured: the angle rule's 45:45 split of a quad's diagonal shears the outer boundary-layer
     quads beside triangles from 93 to 129 deg).
     """
-    out = []
-    any_aniso = False
-    poor = np.zeros(topo.n_free, bool)
-    keep_q = np.zeros(topo.n_free, bool)
-    for verts, loc in ((topo.tri_verts, topo.tri_loc), (topo.quad_verts, topo.quad_loc)):
-        k = verts.shape[1]
-        p = [np.take(points, verts[:, m], axis=0) for m in range(k)]
-        e = [np.hypot(*(p[(m + 1) % k] - p[m]).T) for m in range(k)]
-        emax, emin = np.max(e, axis=0) if k else 0, np.min(e, axis=0) if k else 0
+    n = points.shape[0]
+    x, y = np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
+    poor = np.zeros(n, bool)  # per point: some cell of it is not well shaped
+    keep_q = np.zeros(n, bool)  # per point: a corner of a near-rectangular stretched quad
+    an_node = np.zeros(n, bool)  # per point: a corner of an anisotropic cell
+    for cells in (topo.tri, topo.quad):
+        k = cells.shape[1]
+        if not cells.shape[0]:
+            continue
+        e, good, rect = _cell_shape(x, y, cells)
+        emax, emin = np.max(e, axis=0), np.min(e, axis=0)
         an = emax >= aniso * emin
-        any_aniso |= bool(an.any())
-        area2 = _cross(p[1] - p[0], p[2] - p[0]) if k == 3 else _cross(p[2] - p[0], p[3] - p[1])
-        # well shaped: every corner within KEEP_QUAD of a right angle (quads) or at least KEEP_TRI (triangles)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            good = np.ones(verts.shape[0], bool)
-            rect = np.ones(verts.shape[0], bool)
-            for m in range(k):
-                u, w = p[(m + 1) % k] - p[m], p[m - 1] - p[m]
-                c = _dot(u, w) / (e[m] * e[m - 1])
-                lim = np.cos(np.radians(90.0 - KEEP_QUAD)) if k == 4 else np.cos(np.radians(KEEP_TRI))
-                good &= ((np.abs(c) <= lim) if k == 4 else (c <= lim)) & (_cross(u, w) > 0)
-                rect &= (np.abs(c) <= np.cos(np.radians(90.0 - KEEP_RECT))) & (_cross(u, w) > 0)
-        poor[loc[~good]] = True
+        an_node[cells[an].ravel()] = True
+        poor[cells[~good].ravel()] = True
         if k == 4:
-            keep_q[loc[rect & (emax >= KEEP_STRETCH * emin)]] = True
+            keep_q[cells[rect & (emax >= KEEP_STRETCH * emin)].ravel()] = True
+    keep = ~poor[topo.free_nodes] | keep_q[topo.free_nodes]
+    out = []
+    for verts in (topo.tri_verts, topo.quad_verts):
+        k = verts.shape[1]
+        zero = np.zeros(verts.shape[0])
+        rows = np.flatnonzero(an_node[verts[:, 0]])  # rows of a node with an anisotropic cell
+        if not rows.size:
+            out += [zero, zero, zero]
+            continue
+        e, _, _ = _cell_shape(x, y, verts[rows])
+        an = np.max(e, axis=0) >= aniso * np.min(e, axis=0)
+        px = [np.take(x, verts[rows, m]) for m in range(k)]
+        py = [np.take(y, verts[rows, m]) for m in range(k)]
+        if k == 3:
+            area2 = (px[1] - px[0]) * (py[2] - py[0]) - (py[1] - py[0]) * (px[2] - px[0])
+        else:
+            area2 = (px[2] - px[0]) * (py[3] - py[1]) - (py[2] - py[0]) * (px[3] - px[1])
         f = np.where(an, fraction, 0.0)
-        out += [f * np.abs(area2), f * e[0], f * e[k - 1]]
-    if any_aniso:
+        cols = []
+        for v in (f * np.abs(area2), f * e[0], f * e[k - 1]):
+            c = zero.copy()
+            c[rows] = v
+            cols.append(c)
+        out += cols
+    if an_node.any():
         packed = np.zeros((6, max(out[0].shape[0], out[3].shape[0])))
         for k, a in enumerate(out):
             packed[k, : a.shape[0]] = a
     else:
         packed = np.zeros((0, 0))
-    return Floors(*out, packed, ~poor | keep_q)
+    return Floors(*out, packed, keep)
 
 
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
