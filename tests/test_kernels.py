@@ -37,7 +37,7 @@ def flat_quad() -> Mesh2D:
 
 def thin_layers() -> Mesh2D:
     """Quads graded towards the bottom (y -> y^3): the lowest rows have edge ratios far above 4, so
-    the driver's input floors (``_local.input_floors``) apply to them."""
+    the driver's input floors (``_floors.input_floors``) apply to them."""
     m = gen.structured_quads(8, 6)
     p = m.points.copy()
     h = p[:, 1].max()
@@ -97,7 +97,7 @@ def test_every_method_same_result_with_either_kernel(name, method, guard, monkey
 @pytest.mark.parametrize("method", sorted(SMOOTHERS))
 def test_input_floors_same_result_with_either_kernel(method, monkeypatch):
     from anglesmooth.driver import smooth
-    from anglesmooth.smoothers._local import input_floors
+    from anglesmooth.smoothers._floors import input_floors
 
     mesh = thin_layers()
     assert input_floors(mesh.points, build_topology(mesh)).active

@@ -393,7 +393,7 @@ def test_guarded_methods_keep_boundary_layer_cells_from_collapsing(method, bl_me
     thinnest quads (measured: an edge to 5e-4 of its length, area ratio 217 -> 6,907) while their angles
     stay good."""
     from anglesmooth.quality import cell_areas
-    from anglesmooth.smoothers._local import FLOOR, input_floors
+    from anglesmooth.smoothers._floors import FLOOR, input_floors
 
     mesh = bl_mesh
     topo = build_topology(mesh)

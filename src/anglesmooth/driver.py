@@ -19,7 +19,7 @@ import numpy as np
 from .mesh import Mesh2D, place_high_order
 from .quality import invalid_cells
 from .smoothers import get_smoother
-from .smoothers._local import input_floors
+from .smoothers._floors import input_floors
 from .topology import Topology, build_topology
 
 __all__ = ["SmoothResult", "smooth"]
@@ -100,7 +100,7 @@ def smooth(
         Refuse moves that would invert or degenerate a cell or make a quad
         non-convex, or shrink an anisotropic input cell (boundary layer)
         below a fixed fraction of its input area or edge length (default; see
-        :func:`anglesmooth.smoothers._local.input_floors`).  ``False`` gives
+        :func:`anglesmooth.smoothers._floors.input_floors`).  ``False`` gives
         the methods' textbook form.
     order : {"colour", "jacobi"}
         Gauss-Seidel over colour classes (default) or all nodes at once.

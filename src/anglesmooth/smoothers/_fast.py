@@ -179,7 +179,7 @@ def local_scale(points: np.ndarray, topo, blk, subset: np.ndarray | None = None)
 
 
 def _floors(floors) -> np.ndarray:
-    """The input floors (``_local.Floors`` or None) as the (6, rows) array the kernels take; (0, 0) for none."""
+    """The input floors (``_floors.Floors`` or None) as the (6, rows) array the kernels take; (0, 0) for none."""
     return np.zeros((0, 0)) if floors is None or not floors.active else floors.packed
 
 

@@ -34,7 +34,7 @@ def _kernel(fn):
 def _node_score(pts, px, py, f, tp, tv, qp, qv, fl):
     """``BlockGeometry.score`` for one node (free index ``f``) at (px, py): ``_tri_chunk`` / ``_quad_chunk``.
 
-    ``fl``: the input floors (``_local.Floors``) as a (6, rows) array, or an empty one (no floors).
+    ``fl``: the input floors (``_floors.Floors``) as a (6, rows) array, or an empty one (no floors).
     """
     best = np.inf
     bad = 0.0

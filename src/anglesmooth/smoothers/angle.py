@@ -48,7 +48,7 @@ The robust default (``guard=True``)
        paper's size uniformity.  Nodes whose input cells were all well shaped
        (quad corners within 30 deg of a right angle, triangle corners >= 40
        deg, or a stretched well-shaped quad: see
-       :func:`._local.input_floors`) take it only if it is also no worse than
+       :func:`._floors.input_floors`) take it only if it is also no worse than
        staying, so the good parts of a mesh never get worse.
     2. *Otherwise the best of five*: A, the Laplacian position L, (A+L)/2,
        (A+C)/2 and the current position C, by local quality, no candidate
@@ -118,7 +118,8 @@ import numpy as np
 from ..topology import Topology
 from . import _fast
 from ._blocks import StepResult, run_blocks
-from ._local import INVALID, Floors, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
+from ._floors import Floors
+from ._local import INVALID, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
 
 __all__ = ["step"]
 
@@ -180,8 +181,8 @@ def step(
         optimizing nodes that are already good only moves them along plateaus
         of the max-min objective and keeps a disturbed regular mesh from
         returning to its place.
-    floors : :class:`._local.Floors` or None
-        Input floors of the guard (see :func:`._local.input_floors`; the
+    floors : :class:`._floors.Floors` or None
+        Input floors of the guard (see :func:`._floors.input_floors`; the
         driver passes them).
     area_band : float or None
         During that optimization a node's smallest incident cell keeps at least

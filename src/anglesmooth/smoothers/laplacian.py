@@ -23,7 +23,8 @@ import numpy as np
 
 from ..topology import Topology
 from ._blocks import StepResult, run_blocks
-from ._local import Floors, first_valid, geometry, laplacian_target
+from ._floors import Floors
+from ._local import first_valid, geometry, laplacian_target
 
 __all__ = ["step"]
 
@@ -31,7 +32,7 @@ __all__ = ["step"]
 def step(
     points: np.ndarray, topo: Topology, /, *, guard: bool = True, order: str = "colour", floors: Floors | None = None
 ) -> StepResult:
-    """One Laplacian pass over all free nodes (``floors``: see :func:`._local.input_floors`)."""
+    """One Laplacian pass over all free nodes (``floors``: see :func:`._floors.input_floors`)."""
 
     def update(pts, blk, cur):
         target = laplacian_target(pts, topo, blk)

@@ -28,7 +28,8 @@ import numpy as np
 
 from ..topology import Topology
 from ._blocks import StepResult, run_blocks
-from ._local import Floors, geometry, local_scale, optimize
+from ._floors import Floors
+from ._local import geometry, local_scale, optimize
 
 __all__ = ["step"]
 
@@ -44,7 +45,7 @@ def step(
     floors: Floors | None = None,
 ) -> StepResult:
     """One pass of local max-min-angle optimization over all free nodes (``floors``: see
-    :func:`._local.input_floors`)."""
+    :func:`._floors.input_floors`)."""
 
     def update(pts, blk, cur):
         geom = geometry(pts, topo, blk, floors)

@@ -23,7 +23,8 @@ import numpy as np
 
 from ..topology import Topology
 from ._blocks import StepResult, run_blocks
-from ._local import Floors, geometry, laplacian_target
+from ._floors import Floors
+from ._local import geometry, laplacian_target
 
 __all__ = ["step"]
 
@@ -33,7 +34,7 @@ def step(
 ) -> StepResult:
     """One smart-Laplacian pass: Laplacian moves accepted only where the local minimum angle improves.
 
-    ``floors``: see :func:`._local.input_floors`."""
+    ``floors``: see :func:`._floors.input_floors`."""
 
     def update(pts, blk, cur):
         target = laplacian_target(pts, topo, blk)
