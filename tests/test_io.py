@@ -475,7 +475,8 @@ def test_read_errors_are_one_line(msh_files, tmp_path):
 
 
 def test_bad_geometry(tmp_path):
-    with pytest.raises(UnsupportedMeshError, match="mesh is not planar: z varies from 0 to 0.5"):
+    with pytest.raises(UnsupportedMeshError, match=r"mesh is not planar: node 0 lies 0.131 from the best-fit plane .* "
+                       r"more than the tolerance 1e-08 \(1e-08 x the mesh size 1\)"):
         asio.read(_vtu(tmp_path, [[0, 0, 0], [1, 0, 0], [1, 1, 0.5], [0, 1, 0]], [("quad", [[0, 1, 2, 3]])]))
     with pytest.raises(InvalidMeshError, match="node 2 has a non-finite"):
         asio.read(_vtu(tmp_path, [[0, 0, 0], [1, 0, 0], [np.nan, 1, 0]], [("triangle", [[0, 1, 2]])]))

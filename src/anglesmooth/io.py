@@ -28,7 +28,7 @@ import contextlib
 import io as _stdio
 import os
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +36,8 @@ import numpy as np
 
 from .errors import AngleSmoothError, InvalidMeshError, MeshReadError, MeshWriteError, UnsupportedMeshError
 from .mesh import Mesh2D
+from . import msh41
+from .plane import PlaneFrame, fit_plane
 
 __all__ = ["read", "write", "supported_formats"]
 
@@ -57,6 +59,9 @@ class _Source:
     gmsh_version: str | None
     gmsh_binary: bool | None
     had_z: bool
+    node_tags: Any = None  # (N,) int64 gmsh node tags of the points, when the file had them
+    gmsh_entities: Any = None  # MSH 4 $Entities as read (see msh41.read_entities)
+    binary: bool | None = None  # the input's encoding, where its format has a choice
 
 
 @contextlib.contextmanager
@@ -84,6 +89,7 @@ def _meshio():
 
         cell_data_from_raw._anglesmooth_fix = True
         _gmsh22.cell_data_from_raw = cell_data_from_raw
+    msh41.install()
     return meshio
 
 
@@ -191,10 +197,11 @@ def read(path, *, file_format: str | None = None) -> Mesh2D:
                 f"{where}: unknown file extension '{''.join(p.suffixes) or '(none)'}' "
                 "(name the format with --input-format)"
             )
-    m = _read_meshio(p, fmt, where)
+    m, extra = _read_meshio(p, fmt, where)
     is_gmsh = header is not None and (fmt or "").startswith("gmsh")
+    src = _Source(m, fmt, header[0] if is_gmsh else None, header[1] if is_gmsh else None, False, **extra)
     try:
-        return _to_mesh2d(m, _Source(m, fmt, header[0] if is_gmsh else None, header[1] if is_gmsh else None, False))
+        return _to_mesh2d(m, src)
     except (InvalidMeshError, UnsupportedMeshError) as e:
         raise type(e)(f"'{p}': {e}") from None
     except MemoryError:
@@ -220,8 +227,11 @@ def _read_meshio(p: Path, fmt: str | None, where: str):
     reasons = []
     for name in cands:
         try:
+            msh41.take_captured()
             with _quiet():
-                return reader_map[name](str(p))
+                m = reader_map[name](str(p))
+            got = msh41.take_captured() if name.startswith("gmsh") else {}
+            return m, {"node_tags": got.get("node_tags"), "gmsh_entities": got.get("entities")}
         except MemoryError:
             raise MeshReadError(f"{where}: too large to read: out of memory") from None
         except (Exception, SystemExit) as e:
@@ -233,7 +243,7 @@ def _read_meshio(p: Path, fmt: str | None, where: str):
     raise MeshReadError(f"{where}: {'; '.join(reasons) if len(reasons) < 3 else reasons[0] + '; ...'}")
 
 
-def _points(m) -> tuple[np.ndarray, bool]:
+def _points(m) -> tuple[np.ndarray, PlaneFrame | None]:
     pts = np.asarray(m.points)
     if pts.size == 0:
         raise InvalidMeshError("the mesh has no nodes")
@@ -247,13 +257,10 @@ def _points(m) -> tuple[np.ndarray, bool]:
         i = int(np.flatnonzero((np.abs(pts) > _MAX_COORD).any(axis=1))[0])
         raise InvalidMeshError(f"node {i} has an absurd coordinate {pts[i].tolist()} (limit {_MAX_COORD:g})")
     had_z = pts.shape[1] == 3
-    if had_z and pts.shape[0]:
-        z = pts[:, 2]
-        zmin, zmax = float(z.min()), float(z.max())
-        size = max(float(np.ptp(pts[:, k])) for k in range(3))  # per column: far faster than axis=0 on (N, 3)
-        if zmax - zmin > 1e-12 * size:
-            raise UnsupportedMeshError(f"mesh is not planar: z varies from {zmin:g} to {zmax:g}")
-    return pts[:, :2], had_z
+    if not had_z:
+        return pts, None
+    frame, uv = fit_plane(pts)
+    return uv, frame
 
 
 def _int_tags(arr, n: int) -> np.ndarray | None:
@@ -285,8 +292,8 @@ def _check_cell_types(m) -> None:
 
 def _to_mesh2d(m, src: _Source) -> Mesh2D:
     _check_cell_types(m)
-    pts, had_z = _points(m)
-    src = _Source(src.mesh, src.format, src.gmsh_version, src.gmsh_binary, had_z)
+    pts, frame = _points(m)
+    src = replace(src, had_z=frame is not None)
     n = pts.shape[0]
     key = next((k for k in _REGION_KEYS if k in m.cell_data), None)
     tri, quad, tri_ids, quad_ids, tri_reg, quad_reg, mids, cens = ([] for _ in range(8))
@@ -354,6 +361,7 @@ def _to_mesh2d(m, src: _Source) -> Mesh2D:
         centres=cat(cens, 5),
         groups=_groups(m, n),
         source=src,
+        frame=frame,
     )
 
 
@@ -525,7 +533,12 @@ def _write_meshio(tmp: str, out, fmt: str, src: _Source | None, binary: bool | N
             binary = bool(src.gmsh_binary) if src is not None and src.gmsh_version else False
         _gmsh_tags(out)
         _gmsh_data(out, ascii_=not binary)
-        if version in ("4.0", "4.1"):
+        if version == "4.1":  # meshio's 4.1 writer refuses two cell blocks of one entity
+            gmsh_src = src if src is not None and src.gmsh_version else None
+            msh41.write(tmp, out, binary=binary, entities=gmsh_src.gmsh_entities if gmsh_src else None,
+                        node_tags=src.node_tags if src is not None else None)
+            return
+        if version == "4.0":
             _gmsh4_entities(out)
         gmsh.write(tmp, out, fmt_version=version, binary=binary)
     elif fmt == "xdmf":
@@ -545,12 +558,16 @@ def _out_mesh(mesh: Mesh2D, src: _Source | None, xy: np.ndarray, fmt: str):
         regs = [r for r, (t, c) in zip((mesh.triangle_region, mesh.quad_region), cells) if r is not None]
         if len(regs) == len(cells):
             cell_data["gmsh:physical"] = [np.asarray(r, dtype=np.int32) for r in regs]
-        m = meshio.Mesh(xy.copy(), [(t, np.array(c)) for t, c in cells], cell_data=cell_data)
+        pts = xy.copy() if mesh.frame is None else mesh.points_3d(xy)
+        m = meshio.Mesh(pts, [(t, np.array(c)) for t, c in cells], cell_data=cell_data)
         m.point_sets = {k: np.array(v) for k, v in mesh.groups.items()}
         return _adapt_sets(m, fmt)
     s = src.mesh
     pts = np.array(s.points, dtype=np.float64, copy=True)
-    pts[:, :2] = xy
+    if mesh.frame is not None and pts.shape[1] == 3:
+        pts = mesh.frame.to_3d(xy, base=pts)  # fixed nodes: bit-identical in all three coordinates
+    else:
+        pts[:, :2] = xy
     m = meshio.Mesh(
         pts,
         [meshio.CellBlock(c.type, c.data, getattr(c, "tags", None)) for c in s.cells],

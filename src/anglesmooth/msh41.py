@@ -1,0 +1,345 @@
+"""gmsh files: what meshio's readers drop, and an MSH 4.1 writer that holds any mesh.
+
+Reading
+    :func:`install` wraps meshio's gmsh readers (once) so that each read leaves
+    behind, in :func:`take_captured`, the gmsh node tags of the points (MSH 2.2,
+    4.0, 4.1) and the whole MSH 4.1 ``$Entities`` table: bounding boxes, *all*
+    physical tags of every entity and its bounding entities (meshio keeps one
+    physical tag per entity and no bounding box).
+
+Writing
+    meshio's MSH 4.1 writer refuses two cell blocks of one entity ("non-unique
+    CellBlock dim_tag"), which is what gmsh writes for a surface holding
+    triangles and quads (``BoundaryLayer`` field with ``Quads = 1``, partial
+    recombination).  The format allows one element block per entity *and element
+    type*; :func:`write` writes such files, ASCII or binary:
+
+    * ``$Entities``: the table read from the source when there is one (all
+      physical tags, bounding entities, boxes), else one entity per
+      (dimension, ``gmsh:geometrical`` tag) with the physical tags of its cells
+      and a box around its nodes;
+    * ``$Nodes``: one block per node entity (``gmsh:dim_tags``, or the
+      lowest-dimensional entity of a cell using the node), in the order the
+      entities first appear among the points, with the source's node tags
+      (else 1..N);
+    * ``$Elements``: one block per cell block and entity, element tags 1..M;
+    * ``$PhysicalNames``, ``$Periodic``, ``$NodeData`` / ``$ElementData`` (1, 3
+      or 9 doubles per node / element).
+"""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Any
+
+import numpy as np
+
+__all__ = ["install", "take_captured", "write"]
+
+_CAPTURED: dict[str, Any] = {}
+_INSTALLED = False
+
+
+def take_captured() -> dict[str, Any]:
+    """What the last gmsh read left behind: ``node_tags`` (1-based, per point) and ``entities``."""
+    out = dict(_CAPTURED)
+    _CAPTURED.clear()
+    return out
+
+
+def install() -> None:
+    """Wrap meshio's gmsh node and entity readers to capture node tags and the entity table."""
+    global _INSTALLED
+    if _INSTALLED:
+        return
+    from meshio.gmsh import _gmsh22, _gmsh40, _gmsh41
+
+    def wrap(mod, offset):
+        orig = mod._read_nodes
+
+        def _read_nodes(*args, **kwargs):
+            out = orig(*args, **kwargs)
+            _CAPTURED["node_tags"] = np.asarray(out[1], dtype=np.int64) + offset
+            return out
+
+        mod._read_nodes = _read_nodes
+
+    wrap(_gmsh22, 0)
+    wrap(_gmsh40, 0)
+    wrap(_gmsh41, 1)  # meshio 5.3 returns tag - 1 there
+    _gmsh41._read_entities = _read_entities_41
+    _INSTALLED = True
+
+
+def _read_entities_41(f, is_ascii: bool, data_size):
+    """meshio's ``_read_entities`` (same return value), keeping the whole table."""
+    from meshio.gmsh._gmsh41 import _size_type
+    from meshio.gmsh.common import _fast_forward_to_end_block
+
+    fromfile = partial(np.fromfile, sep=" " if is_ascii else "")
+    c_int, c_double, c_size_t = np.dtype("i"), np.dtype("d"), _size_type(data_size)
+    physical_tags: tuple[dict, ...] = ({}, {}, {}, {})
+    bounding_entities: tuple[dict, ...] = ({}, {}, {}, {})
+    table: dict[tuple[int, int], tuple] = {}
+    number = fromfile(f, c_size_t, 4)
+    for d, n in enumerate(number):
+        for _ in range(n):
+            (tag,) = fromfile(f, c_int, 1)
+            box = fromfile(f, c_double, 3 if d == 0 else 6)
+            (num_physicals,) = fromfile(f, c_size_t, 1)
+            phys = fromfile(f, c_int, num_physicals)
+            physical_tags[d][tag] = list(phys)
+            bounds = np.zeros(0, np.int32)
+            if d > 0:
+                num_bounds = fromfile(f, c_size_t, 1)[0]
+                bounds = fromfile(f, c_int, num_bounds)
+                bounding_entities[d][tag] = bounds
+            table[(d, int(tag))] = (np.array(box, np.float64), tuple(int(p) for p in phys), tuple(int(b) for b in bounds))
+    _fast_forward_to_end_block(f, "Entities")
+    _CAPTURED["entities"] = table
+    return physical_tags, bounding_entities
+
+
+# ---------------------------------------------------------------------------
+# writing
+# ---------------------------------------------------------------------------
+
+_FLOAT = "%.17g"  # 17 significant digits: every double reads back bit for bit
+_CHUNK = 200_000
+
+
+class _Out:
+    """ASCII or binary output of numbers, in chunks (no Python loop per row)."""
+
+    def __init__(self, fh, binary: bool):
+        self.fh, self.binary = fh, binary
+
+    def text(self, s: str) -> None:
+        self.fh.write(s.encode())
+
+    def ints(self, values, dtype, sep: str = " ") -> None:
+        a = np.asarray(values).astype(dtype, copy=False).ravel()
+        if self.binary:
+            self.fh.write(a.tobytes())
+        else:
+            self.text(sep.join(map(str, a.tolist())) + "\n")
+
+    def table(self, columns: list[np.ndarray], dtypes: list[str]) -> None:
+        """Rows made of several columns (each (n,) or (n, k)) of the given dtypes."""
+        cols = [np.asarray(c).reshape(len(c), -1) for c in columns]
+        n = cols[0].shape[0] if cols else 0
+        if self.binary:
+            fields = [(f"f{i}", dt, (c.shape[1],)) for i, (c, dt) in enumerate(zip(cols, dtypes))]
+            rec = np.empty(n, dtype=fields)
+            for i, c in enumerate(cols):
+                rec[f"f{i}"] = c
+            self.fh.write(rec.tobytes())
+            return
+        fmt = " ".join(" ".join([_FLOAT if dt == "d" else "%d"] * c.shape[1]) for c, dt in zip(cols, dtypes)) + "\n"
+        for s in range(0, n, _CHUNK):
+            e = min(n, s + _CHUNK)
+            parts = [c[s:e].astype(np.float64 if dt == "d" else np.int64) for c, dt in zip(cols, dtypes)]
+            flat = np.concatenate([p.astype(object) for p in parts], axis=1) if len(parts) > 1 else parts[0]
+            self.text((fmt * (e - s)) % tuple(flat.ravel().tolist()))
+
+    def end(self, name: str) -> None:
+        if self.binary:
+            self.fh.write(b"\n")
+        self.text(f"$End{name}\n")
+
+
+def _cell_tags(m, key: str) -> list[np.ndarray] | None:
+    data = m.cell_data.get(key)
+    if data is None or len(data) != len(m.cells):
+        return None
+    return [np.asarray(a).reshape(-1).astype(np.int64) for a in data]
+
+
+def _element_blocks(m, geo: list[np.ndarray]) -> list[tuple[int, int, int, np.ndarray]]:
+    """(dim, entity tag, cell block, rows) per element block: each cell block split by entity."""
+    out = []
+    for b, c in enumerate(m.cells):
+        g = geo[b]
+        if not len(g):
+            continue
+        if (g == g[0]).all():
+            out.append((c.dim, int(g[0]), b, np.arange(len(g))))
+            continue
+        uniq, first = np.unique(g, return_index=True)
+        for t in uniq[np.argsort(first)]:
+            out.append((c.dim, int(t), b, np.flatnonzero(g == t)))
+    return out
+
+
+def _node_dim_tags(m, blocks, n: int) -> np.ndarray:
+    dt = m.point_data.get("gmsh:dim_tags")
+    if dt is not None:
+        dt = np.asarray(dt).astype(np.int64)
+        if dt.shape == (n, 2):
+            return dt
+    out = np.zeros((n, 2), np.int64)
+    if blocks:
+        top = max(blocks, key=lambda blk: blk[0])
+        out[:] = (top[0], top[1])
+    for dim, tag, b, rows in sorted(blocks, key=lambda blk: -blk[0]):  # lower dimensions last: they win
+        out[np.asarray(m.cells[b].data)[rows].ravel()] = (dim, tag)
+    return out
+
+
+def _entities(m, pts, blocks, phys, dim_tags, source_table):
+    """{(dim, tag): (box, physical tags, bounding tags)} in the order to write."""
+    table: dict[tuple[int, int], tuple] = dict(source_table or {})
+    bounding_sets = m.cell_sets.get("gmsh:bounding_entities")
+    extra: dict[tuple[int, int], list] = {}
+    for dim, tag, b, rows in blocks:
+        extra.setdefault((dim, tag), []).append((b, rows))
+    uniq_nodes = np.unique(dim_tags, axis=0) if len(dim_tags) else np.zeros((0, 2), np.int64)
+    for d, t in uniq_nodes.tolist():
+        extra.setdefault((d, t), [])
+    for key in sorted(extra):
+        if key in table:
+            continue
+        dim, tag = key
+        members = [np.asarray(m.cells[b].data)[rows].ravel() for b, rows in extra[key]]
+        members.append(np.flatnonzero((dim_tags[:, 0] == dim) & (dim_tags[:, 1] == tag)))
+        nodes = np.unique(np.concatenate(members)) if members else np.zeros(0, np.int64)
+        xyz = pts[nodes] if nodes.size else np.zeros((1, 3))
+        box = xyz[0] if dim == 0 else np.concatenate([xyz.min(axis=0), xyz.max(axis=0)])
+        ph = sorted({int(v) for b, rows in extra[key] if phys is not None for v in np.unique(phys[b][rows]) if v != 0})
+        bounds: tuple = ()
+        if bounding_sets is not None and len(bounding_sets) == len(m.cells) and extra[key]:
+            bset = bounding_sets[extra[key][0][0]]
+            bounds = tuple(int(v) for v in np.asarray(bset if bset is not None else [], dtype=np.int64).ravel())
+        table[key] = (box, tuple(ph), bounds)
+    have = {d: {t for dd, t in table if dd == d} for d in range(4)}
+    kept = set(source_table or {})  # gmsh's own lists are written verbatim
+    return {
+        key: (box, ph, bnd if key in kept else tuple(v for v in bnd if abs(v) in have.get(key[0] - 1, set())))
+        for key, (box, ph, bnd) in sorted(table.items(), key=lambda kv: kv[0])
+    }
+
+
+def _valid_tags(tags, n: int) -> np.ndarray:
+    if tags is not None:
+        t = np.asarray(tags, dtype=np.int64).reshape(-1)
+        if t.shape == (n,) and n and t.min() > 0 and np.unique(t).size == n:
+            return t
+    return np.arange(1, n + 1, dtype=np.int64)
+
+
+def write(path, m, *, binary: bool, entities=None, node_tags=None) -> None:
+    """Write meshio mesh ``m`` as MSH 4.1 (see the module notes).
+
+    ``entities`` is an ``$Entities`` table captured at read time, ``node_tags``
+    the source's gmsh node tags (both optional).
+    """
+    from meshio.gmsh.common import _meshio_to_gmsh_order, _meshio_to_gmsh_type
+
+    pts = np.asarray(m.points, dtype=np.float64)
+    if pts.shape[1] == 2:
+        pts = np.column_stack([pts, np.zeros(len(pts))])
+    n = len(pts)
+    geo = _cell_tags(m, "gmsh:geometrical") or [np.full(len(c), k + 1, np.int64) for k, c in enumerate(m.cells)]
+    phys = _cell_tags(m, "gmsh:physical")
+    blocks = _element_blocks(m, geo)
+    dim_tags = _node_dim_tags(m, blocks, n)
+    table = _entities(m, pts, blocks, phys, dim_tags, entities)
+    tags = _valid_tags(node_tags, n)
+    # node blocks in the order their entities first appear among the points
+    uniq, first, inverse = np.unique(dim_tags, axis=0, return_index=True, return_inverse=True)
+    rank = np.empty(len(uniq), np.int64)
+    rank[np.argsort(first)] = np.arange(len(uniq))
+    node_order = np.argsort(rank[inverse.reshape(-1)], kind="stable")
+    counts = np.bincount(rank[inverse.reshape(-1)], minlength=len(uniq))
+    block_keys = uniq[np.argsort(first)]
+    size_t, c_int = "u8", "i4"
+    with open(path, "wb") as fh:
+        out = _Out(fh, binary)
+        out.text(f"$MeshFormat\n4.1 {int(binary)} 8\n")
+        if binary:
+            fh.write(np.array([1], np.int32).tobytes() + b"\n")
+        out.text("$EndMeshFormat\n")
+        names = []
+        for key, val in (m.field_data or {}).items():
+            v = np.asarray(val).reshape(-1)
+            if v.size == 2 and v.dtype.kind in "iu":
+                names.append((int(v[1]), int(v[0]), str(key)))
+        names.sort()
+        if names:
+            out.text("$PhysicalNames\n" + f"{len(names)}\n" + "".join(f'{d} {t} "{s}"\n' for d, t, s in names))
+            out.text("$EndPhysicalNames\n")
+        # $Entities
+        out.text("$Entities\n")
+        per_dim = [sum(1 for d, _ in table if d == k) for k in range(4)]
+        out.ints(per_dim, size_t)
+        for (dim, tag), (box, ph, bnd) in table.items():
+            if binary:
+                fh.write(np.array([tag], np.int32).tobytes() + np.asarray(box, np.float64).tobytes())
+                fh.write(np.array([len(ph)], np.uint64).tobytes() + np.array(ph, np.int32).tobytes())
+                if dim > 0:
+                    fh.write(np.array([len(bnd)], np.uint64).tobytes() + np.array(bnd, np.int32).tobytes())
+            else:
+                items = [str(tag), *(_FLOAT % v for v in np.asarray(box, np.float64)), str(len(ph)), *map(str, ph)]
+                if dim > 0:
+                    items += [str(len(bnd)), *map(str, bnd)]
+                out.text(" ".join(items) + "\n")
+        out.end("Entities")
+        # $Nodes
+        out.text("$Nodes\n")
+        out.ints([len(block_keys), n, int(tags.min()) if n else 0, int(tags.max()) if n else 0], size_t)
+        start = 0
+        for (dim, etag), cnt in zip(block_keys.tolist(), counts.tolist()):
+            idx = node_order[start : start + cnt]
+            start += cnt
+            if binary:
+                fh.write(np.array([dim, etag, 0], np.int32).tobytes() + np.array([cnt], np.uint64).tobytes())
+                fh.write(tags[idx].astype(np.uint64).tobytes())
+                fh.write(np.ascontiguousarray(pts[idx]).tobytes())
+            else:
+                out.text(f"{dim} {etag} 0 {cnt}\n")
+                if cnt:
+                    out.ints(tags[idx], np.int64, sep="\n")
+                    out.table([pts[idx]], ["d"])
+        out.end("Nodes")
+        # $Elements
+        total = sum(len(rows) for *_, rows in blocks)
+        out.text("$Elements\n")
+        out.ints([len(blocks), total, 1 if total else 0, total], size_t)
+        elem_tags, t0 = [], 1
+        for dim, etag, b, rows in blocks:
+            c = m.cells[b]
+            conn = tags[_meshio_to_gmsh_order(c.type, np.asarray(c.data)[rows])]
+            ids = np.arange(t0, t0 + len(rows), dtype=np.int64)
+            elem_tags.append(ids)
+            t0 += len(rows)
+            if binary:
+                fh.write(np.array([dim, etag, _meshio_to_gmsh_type[c.type]], np.int32).tobytes())
+                fh.write(np.array([len(rows)], np.uint64).tobytes())
+                fh.write(np.column_stack([ids, conn]).astype(np.uint64).tobytes())
+            else:
+                out.text(f"{dim} {etag} {_meshio_to_gmsh_type[c.type]} {len(rows)}\n")
+                out.table([ids, conn], ["i", "i"])
+        out.end("Elements")
+        if getattr(m, "gmsh_periodic", None):
+            from meshio.gmsh._gmsh41 import _write_periodic
+
+            _write_periodic(fh, m.gmsh_periodic, ".16e", binary)
+        for name, data in m.point_data.items():
+            if name != "gmsh:dim_tags":
+                _write_data(out, "NodeData", name, np.asarray(data, dtype=np.float64)[node_order], tags[node_order])
+        skip = ("gmsh:physical", "gmsh:geometrical", "cell_tags")
+        for name, per_block in m.cell_data.items():
+            if name in skip or len(per_block) != len(m.cells):
+                continue
+            vals = [np.asarray(per_block[b], dtype=np.float64)[rows] for _, _, b, rows in blocks]
+            if vals:
+                _write_data(out, "ElementData", name, np.concatenate(vals), np.concatenate(elem_tags))
+
+
+def _write_data(out: _Out, section: str, name: str, data: np.ndarray, tags: np.ndarray) -> None:
+    data = data.reshape(len(data), -1)
+    if data.shape[1] not in (1, 3, 9):
+        return
+    out.text(f'${section}\n1\n"{name}"\n1\n0\n3\n0\n{data.shape[1]}\n{len(data)}\n')
+    out.table([tags, data], ["i4" if out.binary else "i", "d"])
+    out.end(section)
