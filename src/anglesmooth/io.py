@@ -36,7 +36,8 @@ import numpy as np
 
 from .errors import AngleSmoothError, InvalidMeshError, MeshReadError, MeshWriteError, UnsupportedMeshError
 from .mesh import Mesh2D
-from . import msh41
+from . import gmshfile
+from .gmshfile import int_tags as _int_tags
 from .plane import PlaneFrame, fit_plane
 
 __all__ = ["read", "write", "supported_formats"]
@@ -60,7 +61,7 @@ class _Source:
     gmsh_binary: bool | None
     had_z: bool
     node_tags: Any = None  # (N,) int64 gmsh node tags of the points, when the file had them
-    gmsh_entities: Any = None  # MSH 4 $Entities as read (see msh41.read_entities)
+    gmsh_entities: Any = None  # MSH 4 $Entities as read (see gmshfile)
     binary: bool | None = None  # the input's encoding, where its format has a choice
 
 
@@ -89,7 +90,7 @@ def _meshio():
 
         cell_data_from_raw._anglesmooth_fix = True
         _gmsh22.cell_data_from_raw = cell_data_from_raw
-    msh41.install()
+    gmshfile.install()
     return meshio
 
 
@@ -227,10 +228,10 @@ def _read_meshio(p: Path, fmt: str | None, where: str):
     reasons = []
     for name in cands:
         try:
-            msh41.take_captured()
+            gmshfile.take_captured()
             with _quiet():
                 m = reader_map[name](str(p))
-            got = msh41.take_captured() if name.startswith("gmsh") else {}
+            got = gmshfile.take_captured() if name.startswith("gmsh") else {}
             return m, {"node_tags": got.get("node_tags"), "gmsh_entities": got.get("entities")}
         except MemoryError:
             raise MeshReadError(f"{where}: too large to read: out of memory") from None
@@ -261,21 +262,6 @@ def _points(m) -> tuple[np.ndarray, PlaneFrame | None]:
         return pts, None
     frame, uv = fit_plane(pts)
     return uv, frame
-
-
-def _int_tags(arr, n: int) -> np.ndarray | None:
-    """An (n,) int64 tag array from cell data, or None if it is not one."""
-    try:
-        a = np.asarray(arr)
-    except Exception:
-        return None
-    if a.size != n or a.dtype.kind not in "iuf":
-        return None
-    a = a.reshape(-1)
-    if a.dtype.kind == "f":
-        if not (np.isfinite(a).all() and (a == np.round(a)).all()):
-            return None
-    return a.astype(np.int64)
 
 
 def _check_cell_types(m) -> None:
@@ -531,15 +517,15 @@ def _write_meshio(tmp: str, out, fmt: str, src: _Source | None, binary: bool | N
             version = src.gmsh_version if src is not None and src.gmsh_version in _GMSH_WRITE_VERSIONS else "2.2"
         if binary is None:
             binary = bool(src.gmsh_binary) if src is not None and src.gmsh_version else False
-        _gmsh_tags(out)
-        _gmsh_data(out, ascii_=not binary)
+        gmshfile.gmsh_tags(out)
+        gmshfile.gmsh_data(out, ascii_=not binary)
         if version == "4.1":  # meshio's 4.1 writer refuses two cell blocks of one entity
             gmsh_src = src if src is not None and src.gmsh_version else None
-            msh41.write(tmp, out, binary=binary, entities=gmsh_src.gmsh_entities if gmsh_src else None,
+            gmshfile.write(tmp, out, binary=binary, entities=gmsh_src.gmsh_entities if gmsh_src else None,
                         node_tags=src.node_tags if src is not None else None)
             return
         if version == "4.0":
-            _gmsh4_entities(out)
+            gmshfile.gmsh4_entities(out)
         gmsh.write(tmp, out, fmt_version=version, binary=binary)
     elif fmt == "xdmf":
         meshio.xdmf.write(tmp, out, data_format="XML")
@@ -607,67 +593,3 @@ def _adapt_sets(m, fmt: str):
     keep = ("gmsh:bounding_entities",) if gmsh else ()
     m.cell_sets = {k: v for k, v in m.cell_sets.items() if k in keep and len(v) == len(sizes)}
     return m
-
-
-def _gmsh4_entities(m) -> None:
-    """Give a mesh without gmsh entities one entity per cell block (MSH 4 needs them)."""
-    n = len(m.points)
-    if "gmsh:dim_tags" in m.point_data and "gmsh:geometrical" in m.cell_data:
-        return
-    m.cell_data["gmsh:geometrical"] = [np.full(len(c), k + 1, np.int32) for k, c in enumerate(m.cells)]
-    two_d = [k for k, c in enumerate(m.cells) if c.dim == 2] or [0]
-    dim_tags = np.tile([m.cells[two_d[0]].dim, two_d[0] + 1], (n, 1)).astype(np.int64)
-    order = sorted(range(len(m.cells)), key=lambda k: -m.cells[k].dim)
-    for k in order:  # lower dimensions last: nodes on lines belong to the line entity
-        dim_tags[np.asarray(m.cells[k].data).ravel()] = (m.cells[k].dim, k + 1)
-    m.point_data["gmsh:dim_tags"] = dim_tags
-    m.cell_sets.pop("gmsh:bounding_entities", None)
-
-
-def _gmsh_tags(m) -> None:
-    """Supply gmsh:physical / gmsh:geometrical from the region tags (or zeros) when missing."""
-    key = next((k for k in _REGION_KEYS[2:] if k in m.cell_data), None)
-    for name in ("gmsh:physical", "gmsh:geometrical"):
-        if name not in m.cell_data:
-            m.cell_data[name] = [
-                _physical_from(m.cell_data[key][b] if key else None, len(c)) for b, c in enumerate(m.cells)
-            ]
-
-
-def _physical_from(tags, nc: int) -> np.ndarray:
-    t = _int_tags(tags, nc) if tags is not None else None
-    return np.zeros(nc, np.int32) if t is None else t.astype(np.int32)
-
-
-def _gmsh_data(m, ascii_: bool) -> None:
-    """Make point/cell data storable in MSH: doubles with 1, 3 or 9 components.
-
-    Two-component data are padded with a zero column; other widths are dropped.
-    meshio's ASCII writer prints ``repr`` of numpy scalars (``np.float64(1.0)``
-    under numpy 2), so for ASCII the values are handed over as Python floats.
-    """
-
-    def conv(a):
-        a = np.asarray(a, dtype=np.float64)
-        a = a.reshape(len(a), -1) if a.ndim > 1 else a
-        if a.ndim == 2 and a.shape[1] == 2:
-            a = np.column_stack([a, np.zeros(len(a))])
-        if a.ndim == 2 and a.shape[1] not in (1, 3, 9):
-            return None
-        return np.array(a.tolist(), dtype=object) if ascii_ else a
-
-    tags = ("gmsh:physical", "gmsh:geometrical", "cell_tags")
-    for k in list(m.point_data):
-        if k != "gmsh:dim_tags":
-            v = conv(m.point_data[k])
-            if v is None:
-                del m.point_data[k]
-            else:
-                m.point_data[k] = v
-    for k in list(m.cell_data):
-        if k not in tags:
-            v = [conv(a) for a in m.cell_data[k]]
-            if any(a is None for a in v):
-                del m.cell_data[k]
-            else:
-                m.cell_data[k] = v
