@@ -36,7 +36,7 @@ import numpy as np
 
 from .errors import AngleSmoothError, InvalidMeshError, MeshReadError, MeshWriteError, UnsupportedMeshError
 from .mesh import Mesh2D
-from . import gmshfile
+from . import formats, gmshfile
 from .gmshfile import int_tags as _int_tags
 from .plane import PlaneFrame, fit_plane
 
@@ -189,7 +189,7 @@ def read(path, *, file_format: str | None = None) -> Mesh2D:
     except OSError as e:
         raise MeshReadError(f"{where}: {e.strerror or _reason(e)}") from None
     header = _gmsh_header(p)
-    fmt = file_format
+    fmt = formats.resolve(file_format)
     if fmt is None:
         if header is not None:
             fmt = "gmsh"
@@ -198,9 +198,10 @@ def read(path, *, file_format: str | None = None) -> Mesh2D:
                 f"{where}: unknown file extension '{''.join(p.suffixes) or '(none)'}' "
                 "(name the format with --input-format)"
             )
-    m, extra = _read_meshio(p, fmt, where)
-    is_gmsh = header is not None and (fmt or "").startswith("gmsh")
-    src = _Source(m, fmt, header[0] if is_gmsh else None, header[1] if is_gmsh else None, False, **extra)
+    m, used, extra = _read_meshio(p, fmt, where)
+    is_gmsh = header is not None and used.startswith("gmsh")
+    binary = header[1] if is_gmsh else formats.detect_binary(p, used)
+    src = _Source(m, used, header[0] if is_gmsh else None, header[1] if is_gmsh else None, False, binary=binary, **extra)
     try:
         return _to_mesh2d(m, src)
     except (InvalidMeshError, UnsupportedMeshError) as e:
@@ -232,7 +233,7 @@ def _read_meshio(p: Path, fmt: str | None, where: str):
             with _quiet():
                 m = reader_map[name](str(p))
             got = gmshfile.take_captured() if name.startswith("gmsh") else {}
-            return m, {"node_tags": got.get("node_tags"), "gmsh_entities": got.get("entities")}
+            return m, name, {"node_tags": got.get("node_tags"), "gmsh_entities": got.get("entities")}
         except MemoryError:
             raise MeshReadError(f"{where}: too large to read: out of memory") from None
         except (Exception, SystemExit) as e:
@@ -346,6 +347,7 @@ def _to_mesh2d(m, src: _Source) -> Mesh2D:
         midside=midside,
         centres=cat(cens, 5),
         groups=_groups(m, n),
+        physical=_physical_groups(m, src.gmsh_entities),
         source=src,
         frame=frame,
     )
@@ -388,6 +390,35 @@ def _cell_masks(m) -> dict[str, list[np.ndarray]]:
         if name.startswith(_SET) and len(per_block) == len(sizes):
             add(name[len(_SET) :], [np.asarray(a).reshape(-1) != 0 for a in per_block])
     return out
+
+
+def _physical_groups(m, entities) -> dict[tuple[int, int], np.ndarray]:
+    """Node indices of every physical group by (dimension, number), named or not.
+
+    From the MSH 4.1 entity table when there is one (an entity can be in several
+    groups), else from the ``gmsh:physical`` cell data (0 = none).
+    """
+    phys = m.cell_data.get("gmsh:physical")
+    geo = m.cell_data.get("gmsh:geometrical")
+    parts: dict[tuple[int, int], list[np.ndarray]] = {}
+    for b, block in enumerate(m.cells):
+        data = np.asarray(block.data)
+        nc = len(data)
+        if not nc:
+            continue
+        g = _int_tags(geo[b], nc) if entities and geo is not None and b < len(geo) else None
+        if g is not None:
+            for t in np.unique(g).tolist():
+                for ph in entities.get((block.dim, int(t)), (None, ()))[1]:
+                    parts.setdefault((block.dim, int(ph)), []).append(data[g == t].ravel())
+            continue
+        t = _int_tags(phys[b], nc) if phys is not None and b < len(phys) else None
+        if t is None:
+            continue
+        for ph in np.unique(t).tolist():
+            if ph != 0:
+                parts.setdefault((block.dim, int(ph)), []).append(data[t == ph].ravel())
+    return {k: np.unique(np.concatenate(v)) for k, v in sorted(parts.items())}
 
 
 def _groups(m, n: int) -> dict[str, np.ndarray]:
@@ -446,6 +477,7 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
     [2.0, 0.0]
     >>> os.remove(os.path.join(d, "t.vtu")); os.rmdir(d)
     """
+    mesh = as_mesh2d(mesh)
     p = Path(os.fspath(path))
     where = f"cannot write '{p}'"
     xy = np.asarray(mesh.points if points is None else points, dtype=np.float64)
@@ -461,13 +493,9 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
         raise MeshWriteError(f"{where}: is a directory")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise MeshWriteError(f"{where}: directory '{parent}' is not writable")
-    fmt = file_format
-    if fmt is None:
-        cands = _formats_for(p)
-        if not cands:
-            raise MeshWriteError(f"{where}: unknown file extension '{''.join(p.suffixes) or '(none)'}' (name the format)")
-        fmt = "gmsh" if "gmsh" in cands else cands[0]
+    fmt = output_format(p, file_format)
     src = mesh.source if isinstance(mesh.source, _Source) else None
+    _check_binary(fmt, binary, where)
     try:
         out = _out_mesh(mesh, src, xy, fmt)
     except AngleSmoothError:
@@ -482,7 +510,7 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
     os.close(fd)
     try:
         with _quiet():
-            _write_meshio(tmp, out, fmt, src, binary)
+            _write_meshio(tmp, out, fmt, src, binary, final=p)
         with open(tmp, "rb+") as f:
             os.fsync(f.fileno())
         os.chmod(tmp, _mode_for(p))
@@ -506,7 +534,68 @@ def _mode_for(p: Path) -> int:
         return 0o666 & ~mask
 
 
-def _write_meshio(tmp: str, out, fmt: str, src: _Source | None, binary: bool | None) -> None:
+def output_format(path, file_format: str | None = None) -> str:
+    """The format :func:`write` uses for ``path``: ``file_format`` (a name or alias) or the extension's.
+
+    Raises UnknownFormatError (exit code 2) for an unknown name, MeshWriteError for an unknown extension.
+
+    >>> output_format("a.msh"), output_format("-", "msh"), output_format("b.xmf")
+    ('gmsh', 'gmsh', 'xdmf')
+    """
+    if file_format is not None:
+        return formats.resolve(file_format)
+    p = Path(os.fspath(path))
+    cands = _formats_for(p)
+    if not cands:
+        raise MeshWriteError(
+            f"cannot write '{p}': unknown file extension '{''.join(p.suffixes) or '(none)'}' (name the format)"
+        )
+    return "gmsh" if "gmsh" in cands else cands[0]
+
+
+def _check_binary(fmt: str, binary: bool | None, where: str) -> None:
+    if binary is not None and fmt not in formats.BINARY_CHOICE:
+        raise MeshWriteError(f"{where}: format {fmt} has no ASCII/binary choice ({'binary' if binary else 'ASCII'} asked)")
+
+
+def _default_binary(fmt: str, src: _Source | None) -> bool | None:
+    """The input's encoding when it was read from the same format (None: the writer's default)."""
+    if src is None or src.binary is None or src.format is None:
+        return None
+    return src.binary if src.format == fmt else None
+
+
+def _has_h5py() -> bool:
+    try:
+        import h5py  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _write_xdmf_hdf(tmp: str, out, final: Path) -> None:
+    """XDMF with HDF5 data; the ``.h5`` is ``final`` with suffix ``.h5``, beside it.
+
+    meshio names the ``.h5`` after the ``.xdmf`` it writes and refers to it by
+    that name (which is why a temporary ``.xdmf`` used to get inline XML): both
+    are written under their final names in a temporary directory beside
+    ``final``; the ``.h5`` is moved into place, the ``.xdmf`` goes to ``tmp``,
+    which :func:`write` renames last.
+    """
+    import meshio
+
+    parent = Path(tmp).parent
+    with tempfile.TemporaryDirectory(prefix=f".{final.name}.tmp", dir=parent) as d:
+        x = Path(d) / final.name
+        meshio.xdmf.write(str(x), out, data_format="HDF")
+        h5 = x.with_suffix(".h5")
+        with open(h5, "rb+") as f:
+            os.fsync(f.fileno())
+        os.replace(x, tmp)
+        os.replace(h5, parent / h5.name)
+
+
+def _write_meshio(tmp: str, out, fmt: str, src: _Source | None, binary: bool | None, final: Path | None = None) -> None:
     import meshio
 
     if fmt in ("gmsh", "gmsh22", "gmsh40", "gmsh41"):
@@ -527,15 +616,61 @@ def _write_meshio(tmp: str, out, fmt: str, src: _Source | None, binary: bool | N
         if version == "4.0":
             gmshfile.gmsh4_entities(out)
         gmsh.write(tmp, out, fmt_version=version, binary=binary)
-    elif fmt == "xdmf":
-        meshio.xdmf.write(tmp, out, data_format="XML")
+        return
+    if binary is None:
+        binary = _default_binary(fmt, src)
+    if fmt == "xdmf":
+        # HDF5 data (meshio's default) needs h5py and the final file name; else inline XML
+        if binary is not False and final is not None and _has_h5py():
+            _write_xdmf_hdf(tmp, out, final)
+        else:
+            meshio.xdmf.write(tmp, out, data_format="XML")
+    elif fmt == "vtu" and binary is False:
+        meshio.vtu.write(tmp, out, binary=False)
     else:
         kwargs = {} if binary is None else {"binary": binary}
         meshio.write(tmp, out, file_format=fmt, **kwargs)
 
 
 def _out_mesh(mesh: Mesh2D, src: _Source | None, xy: np.ndarray, fmt: str):
-    """A fresh meshio.Mesh sharing no mutable container with the source."""
+    """A fresh meshio.Mesh for format ``fmt``, sharing no mutable container with the source."""
+    m = _copy_with_points(mesh, src, xy)
+    if fmt.startswith("gmsh") and not m.field_data:
+        _names_from_sets(m)
+    return _adapt_sets(m, fmt)
+
+
+def _names_from_sets(m) -> None:
+    """Physical names back for MSH: a ``set:NAME`` cell array that is exactly one physical group.
+
+    (``msh -> vtu -> msh``: VTU has no field data, so the names travel as
+    ``set:NAME`` arrays beside ``gmsh:physical``.)
+    """
+    phys = m.cell_data.get("gmsh:physical")
+    if phys is None or len(phys) != len(m.cells):
+        return
+    for key in [k for k in m.cell_data if k.startswith(_SET)]:
+        per_block = m.cell_data[key]
+        if len(per_block) != len(m.cells):
+            continue
+        members, all_cells = set(), {}
+        for block, mk, ph in zip(m.cells, per_block, phys):
+            t = _int_tags(ph, len(block.data))
+            if t is None:
+                return
+            mk = np.asarray(mk).reshape(-1) != 0
+            members |= {(block.dim, int(v)) for v in np.unique(t[mk]).tolist()}
+            for v in np.unique(t).tolist():
+                all_cells[(block.dim, int(v))] = all_cells.get((block.dim, int(v)), True) and bool(mk[t == v].all())
+        if len(members) == 1:
+            (dim, tag), = members
+            if tag != 0 and all_cells[(dim, tag)]:
+                m.field_data[key[len(_SET):]] = np.array([tag, dim])
+                del m.cell_data[key]
+
+
+def _copy_with_points(mesh: Mesh2D, src: _Source | None, xy: np.ndarray):
+    """A fresh meshio.Mesh of ``mesh`` with coordinates ``xy``, everything of the source kept."""
     import meshio
 
     if src is None:
@@ -547,7 +682,7 @@ def _out_mesh(mesh: Mesh2D, src: _Source | None, xy: np.ndarray, fmt: str):
         pts = xy.copy() if mesh.frame is None else mesh.points_3d(xy)
         m = meshio.Mesh(pts, [(t, np.array(c)) for t, c in cells], cell_data=cell_data)
         m.point_sets = {k: np.array(v) for k, v in mesh.groups.items()}
-        return _adapt_sets(m, fmt)
+        return m
     s = src.mesh
     pts = np.array(s.points, dtype=np.float64, copy=True)
     if mesh.frame is not None and pts.shape[1] == 3:
@@ -565,7 +700,7 @@ def _out_mesh(mesh: Mesh2D, src: _Source | None, xy: np.ndarray, fmt: str):
         gmsh_periodic=getattr(s, "gmsh_periodic", None),
         info=getattr(s, "info", None),
     )
-    return _adapt_sets(m, fmt)
+    return m
 
 
 def _adapt_sets(m, fmt: str):
@@ -593,3 +728,117 @@ def _adapt_sets(m, fmt: str):
     keep = ("gmsh:bounding_entities",) if gmsh else ()
     m.cell_sets = {k: v for k, v in m.cell_sets.items() if k in keep and len(v) == len(sizes)}
     return m
+
+
+# ---------------------------------------------------------------------------
+# meshio objects, node tags, the output check
+# ---------------------------------------------------------------------------
+
+
+def as_mesh2d(mesh) -> Mesh2D:
+    """``mesh`` itself if it is a :class:`Mesh2D`; a ``meshio.Mesh`` is converted (as :func:`read` would).
+
+    >>> import meshio
+    >>> as_mesh2d(meshio.Mesh([[0, 0], [1, 0], [0, 1]], [("triangle", [[0, 1, 2]])])).n_cells
+    1
+    """
+    if isinstance(mesh, Mesh2D):
+        return mesh
+    if hasattr(mesh, "points") and hasattr(mesh, "cells") and hasattr(mesh, "cell_data"):
+        return _to_mesh2d(mesh, _Source(mesh, None, None, None, False))
+    raise TypeError(f"expected a Mesh2D or a meshio.Mesh, got {type(mesh).__name__}")
+
+
+def to_meshio(mesh, points=None):
+    """A fresh ``meshio.Mesh`` of ``mesh`` with ``points`` (default ``mesh.points``) as its plane coordinates.
+
+    Everything of the source is kept (cell blocks, point/cell/field data, sets,
+    z or the 3D plane); the source is never modified.
+    """
+    mesh = as_mesh2d(mesh)
+    xy = np.asarray(mesh.points if points is None else points, dtype=np.float64)
+    if xy.shape != (mesh.n_points, 2):
+        raise InvalidMeshError(f"points have shape {xy.shape}, expected ({mesh.n_points}, 2)")
+    return _copy_with_points(mesh, mesh.source if isinstance(mesh.source, _Source) else None, xy)
+
+
+def node_tags(mesh) -> np.ndarray | None:
+    """The gmsh node tag (1-based) of every node of a mesh read from an MSH file, else None."""
+    src = getattr(mesh, "source", None)
+    tags = getattr(src, "node_tags", None)
+    if tags is None or len(tags) != mesh.n_points:
+        return None
+    return np.asarray(tags, dtype=np.int64)
+
+
+def _sample(m, node_tags_):
+    """A few cells of meshio mesh ``m``: the first of every (block, tags) combination, with their nodes."""
+    import meshio
+
+    keys = [k for k in ("gmsh:physical", "gmsh:geometrical") if k in m.cell_data and len(m.cell_data[k]) == len(m.cells)]
+    rows = []
+    for b, c in enumerate(m.cells):
+        nc = len(c.data)
+        if not nc:
+            rows.append(np.zeros(0, np.int64))
+            continue
+        cols = [np.asarray(m.cell_data[k][b]).reshape(-1)[:nc] for k in keys]
+        if cols and all(len(x) == nc for x in cols):
+            _, first = np.unique(np.column_stack(cols), axis=0, return_index=True)
+            rows.append(np.sort(first))
+        else:
+            rows.append(np.zeros(1, np.int64))
+    used = np.unique(np.concatenate([np.asarray(c.data)[r].ravel() for c, r in zip(m.cells, rows)] + [np.zeros(0, np.int64)]))
+    remap = np.full(len(m.points), -1, np.int64)
+    remap[used] = np.arange(used.size)
+    cells = [meshio.CellBlock(c.type, remap[np.asarray(c.data)[r]]) for c, r in zip(m.cells, rows)]
+
+    def take(a, r):
+        a = np.asarray(a)
+        return a[r] if a.ndim and len(a) >= (r.max() + 1 if r.size else 0) else a
+
+    out = meshio.Mesh(
+        np.asarray(m.points)[used], cells,
+        point_data={k: take(v, used) for k, v in m.point_data.items()},
+        cell_data={k: [take(a, r) for a, r in zip(v, rows)] for k, v in m.cell_data.items() if len(v) == len(rows)},
+        field_data=dict(m.field_data),
+    )
+    out.cell_sets = {
+        k: [np.flatnonzero(np.isin(r, np.asarray(v if v is not None else [], dtype=np.int64))) for v, r in zip(sets, rows)]
+        for k, sets in m.cell_sets.items() if len(sets) == len(rows) and k != "gmsh:bounding_entities"
+    }
+    if "gmsh:bounding_entities" in m.cell_sets:
+        out.cell_sets["gmsh:bounding_entities"] = m.cell_sets["gmsh:bounding_entities"]
+    return out, None if node_tags_ is None else np.asarray(node_tags_)[used]
+
+
+def check_output(mesh, path, *, file_format: str | None = None, binary: bool | None = None) -> str:
+    """Fail now if the output format cannot hold ``mesh``; return the format name.
+
+    Writes a sample of the mesh (one cell of every cell block and tag
+    combination) in the output format to a temporary directory, so that a
+    refusal of the writer comes before hours of smoothing rather than after.
+
+    Raises
+    ------
+    UnknownFormatError, MeshWriteError
+    """
+    mesh = as_mesh2d(mesh)
+    p = Path(os.fspath(path))
+    fmt = output_format(p, file_format)
+    where = f"cannot write '{p}'"
+    _check_binary(fmt, binary, where)
+    src = mesh.source if isinstance(mesh.source, _Source) else None
+    try:
+        full = _out_mesh(mesh, src, np.asarray(mesh.points), fmt)
+        sample, tags = _sample(full, src.node_tags if src is not None else None)
+        sample_src = replace(src, mesh=sample, node_tags=tags) if src is not None else None
+        with tempfile.TemporaryDirectory(prefix="anglesmooth-check-") as d:
+            target = Path(d) / ("sample" + ("".join(p.suffixes[-2:]) if fmt in ("permas", "netgen") else p.suffix))
+            with _quiet():
+                _write_meshio(str(target), sample, fmt, sample_src, binary, final=target)
+    except AngleSmoothError:
+        raise
+    except (Exception, SystemExit) as e:
+        raise MeshWriteError(f"{where}: the {fmt} format cannot hold this mesh: {_reason(e)}") from None
+    return fmt

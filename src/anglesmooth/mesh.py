@@ -64,6 +64,9 @@ class Mesh2D:
     groups : mapping str -> int64 array
         Node indices of each named group (physical groups, cell sets, point sets),
         for ``--fix-group``.
+    physical : mapping (dim, number) -> int64 array
+        Node indices of each gmsh physical group by dimension and number, named
+        or not (``--fix-group 11``, ``--fix-group 2:11``).
     source : object
         The object the mesh was read from (a ``meshio.Mesh``), kept opaque so
         that :func:`anglesmooth.io.write` can write everything back.
@@ -87,6 +90,7 @@ class Mesh2D:
     groups: Mapping[str, np.ndarray] = field(default_factory=dict)
     source: Any = None
     frame: Any = None
+    physical: Mapping[tuple[int, int], np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         pts = np.asarray(self.points, dtype=np.float64)
@@ -130,6 +134,8 @@ class Mesh2D:
         set_(self, "midside", _ro(np.asarray(self.midside, dtype=np.int64).reshape(-1, 3)))
         set_(self, "centres", _ro(np.asarray(self.centres, dtype=np.int64).reshape(-1, 5)))
         set_(self, "groups", {k: _ro(np.asarray(v, dtype=np.int64).reshape(-1)) for k, v in self.groups.items()})
+        set_(self, "physical", {(int(d), int(t)): _ro(np.asarray(v, dtype=np.int64).reshape(-1))
+                                for (d, t), v in self.physical.items()})
 
     @classmethod
     def from_arrays(cls, points, triangles=None, quads=None, **kwargs) -> Mesh2D:
