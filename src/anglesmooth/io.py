@@ -839,6 +839,8 @@ def check_output(mesh, path, *, file_format: str | None = None, binary: bool | N
                 _write_meshio(str(target), sample, fmt, sample_src, binary, final=target)
     except AngleSmoothError:
         raise
+    except MemoryError:
+        raise MeshWriteError(f"{where}: out of memory") from None
     except (Exception, SystemExit) as e:
         raise MeshWriteError(f"{where}: the {fmt} format cannot hold this mesh: {_reason(e)}") from None
     return fmt
