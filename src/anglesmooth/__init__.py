@@ -10,6 +10,22 @@ The public API::
 
 meshio is imported only when :func:`read` or :func:`write` is called.
 
+A ``meshio.Mesh`` is accepted wherever a :class:`Mesh2D` is taken (:func:`smooth`,
+:func:`write`, :func:`build_topology`, :func:`build_cell_topology`), and
+``result.to_meshio()`` / ``mesh.to_meshio()`` give one back with everything of
+the input kept (cell blocks, point / cell / field data, z or the mesh's plane)::
+
+    result = anglesmooth.smooth(meshio.read("in.msh"))
+    meshio.write("out.vtu", result.to_meshio())
+
+>>> import meshio
+>>> m = meshio.Mesh([[0, 0, 0], [2, 0, 0], [2, 2, 0], [0, 2, 0], [0.3, 0.4, 0]],
+...                 [("triangle", [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])],
+...                 point_data={"T": [0.0, 1, 2, 3, 4]})
+>>> out = smooth(m, "laplacian", passes=1).to_meshio()
+>>> out.points[4].tolist(), out.point_data["T"].tolist(), m.points[4].tolist()
+([1.0, 1.0, 0.0], [0.0, 1.0, 2.0, 3.0, 4.0], [0.3, 0.4, 0.0])
+
 >>> import numpy as np
 >>> mesh = Mesh2D.from_arrays([[0, 0], [2, 0], [2, 2], [0, 2], [0.3, 0.4]],
 ...                           triangles=[[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
@@ -22,6 +38,7 @@ True
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -38,7 +55,9 @@ from .errors import (
 from .mesh import Mesh2D
 from .quality import summarize
 from .smoothers import SMOOTHERS
-from .topology import CellTopology, Topology, build_cell_topology, build_topology
+from .topology import CellTopology, Topology
+from .topology import build_cell_topology as _build_cell_topology
+from .topology import build_topology as _build_topology
 
 if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
@@ -65,6 +84,24 @@ __all__ = [
 ]
 
 
+def _accepts_meshio(fn):
+    """``fn(mesh, ...)`` that also takes a ``meshio.Mesh`` (converted as :func:`read` would)."""
+
+    @functools.wraps(fn)
+    def wrapper(mesh, *args, **kwargs):
+        if not isinstance(mesh, Mesh2D):
+            from .io import as_mesh2d
+
+            mesh = as_mesh2d(mesh)
+        return fn(mesh, *args, **kwargs)
+
+    return wrapper
+
+
+build_topology = _accepts_meshio(_build_topology)
+build_cell_topology = _accepts_meshio(_build_cell_topology)
+
+
 def read(path: str | Path, *, file_format: str | None = None) -> Mesh2D:
     """Read a mesh file into a :class:`Mesh2D` (see :func:`anglesmooth.io.read`)."""
     from .io import read as _read
@@ -80,7 +117,7 @@ def write(
     file_format: str | None = None,
     binary: bool | None = None,
 ) -> None:
-    """Write ``mesh`` (optionally with new ``points``) atomically (see :func:`anglesmooth.io.write`)."""
+    """Write ``mesh`` (a Mesh2D or a meshio.Mesh, optionally with new ``points``) atomically (see :func:`anglesmooth.io.write`)."""
     from .io import write as _write
 
     _write(mesh, path, points=points, file_format=file_format, binary=binary)

@@ -18,9 +18,9 @@ Writing
       physical tags, bounding entities, boxes), else one entity per
       (dimension, ``gmsh:geometrical`` tag) with the physical tags of its cells
       and a box around its nodes;
-    * ``$Nodes``: one block per node entity (``gmsh:dim_tags``, or the
-      lowest-dimensional entity of a cell using the node), in the order the
-      entities first appear among the points, with the source's node tags
+    * ``$Nodes``: one block per run of consecutive points on one entity
+      (``gmsh:dim_tags``, or the lowest-dimensional entity of a cell using the
+      node), so that the node order is kept, with the source's node tags
       (else 1..N);
     * ``$Elements``: one block per cell block and entity, element tags 1..M;
     * ``$PhysicalNames``, ``$Periodic``, ``$NodeData`` / ``$ElementData`` (1, 3
@@ -245,13 +245,12 @@ def write(path, m, *, binary: bool, entities=None, node_tags=None) -> None:
     dim_tags = _node_dim_tags(m, blocks, n)
     table = _entities(m, pts, blocks, phys, dim_tags, entities)
     tags = _valid_tags(node_tags, n)
-    # node blocks in the order their entities first appear among the points
-    uniq, first, inverse = np.unique(dim_tags, axis=0, return_index=True, return_inverse=True)
-    rank = np.empty(len(uniq), np.int64)
-    rank[np.argsort(first)] = np.arange(len(uniq))
-    node_order = np.argsort(rank[inverse.reshape(-1)], kind="stable")
-    counts = np.bincount(rank[inverse.reshape(-1)], minlength=len(uniq))
-    block_keys = uniq[np.argsort(first)]
+    # node blocks: runs of consecutive points on one entity, so that the node order is kept
+    # (the format allows several blocks of one entity; gmsh and meshio read them)
+    change = np.flatnonzero((dim_tags[1:] != dim_tags[:-1]).any(axis=1)) + 1 if n else np.zeros(0, np.int64)
+    starts = np.concatenate([[0], change]).astype(np.int64) if n else np.zeros(0, np.int64)
+    counts = np.diff(np.concatenate([starts, [n]])).astype(np.int64)
+    block_keys = dim_tags[starts]
     size_t, c_int = "u8", "i4"
     with open(path, "wb") as fh:
         out = _Out(fh, binary)
@@ -289,7 +288,7 @@ def write(path, m, *, binary: bool, entities=None, node_tags=None) -> None:
         out.ints([len(block_keys), n, int(tags.min()) if n else 0, int(tags.max()) if n else 0], size_t)
         start = 0
         for (dim, etag), cnt in zip(block_keys.tolist(), counts.tolist()):
-            idx = node_order[start : start + cnt]
+            idx = slice(start, start + cnt)
             start += cnt
             if binary:
                 fh.write(np.array([dim, etag, 0], np.int32).tobytes() + np.array([cnt], np.uint64).tobytes())
@@ -326,7 +325,7 @@ def write(path, m, *, binary: bool, entities=None, node_tags=None) -> None:
             _write_periodic(fh, m.gmsh_periodic, ".16e", binary)
         for name, data in m.point_data.items():
             if name != "gmsh:dim_tags":
-                _write_data(out, "NodeData", name, np.asarray(data, dtype=np.float64)[node_order], tags[node_order])
+                _write_data(out, "NodeData", name, np.asarray(data, dtype=np.float64), tags)
         skip = ("gmsh:physical", "gmsh:geometrical", "cell_tags")
         for name, per_block in m.cell_data.items():
             if name in skip or len(per_block) != len(m.cells):

@@ -812,12 +812,38 @@ def _sample(m, node_tags_):
     return out, None if node_tags_ is None else np.asarray(node_tags_)[used]
 
 
+def _lost_cells(sample, target: Path, fmt: str) -> str | None:
+    """'quad' / 'triangle' when the written sample reads back with fewer such cells (a writer that drops them)."""
+    from meshio._helpers import reader_map
+
+    if fmt.startswith("gmsh") or fmt not in reader_map:
+        return None
+    try:
+        with _quiet():
+            back = reader_map[fmt](str(target))
+    except (Exception, SystemExit):
+        return None  # not readable by meshio (or not alone): nothing to compare
+
+    def count(m) -> tuple[int, int]:
+        tri = quad = 0
+        for c in m.cells:
+            data = np.asarray(c.data)
+            width = data.shape[1] if data.ndim == 2 else 0
+            tri += len(data) if c.type in _TRI or (c.type == "polygon" and width == 3) else 0
+            quad += len(data) if c.type in _QUAD or (c.type == "polygon" and width == 4) else 0
+        return tri, quad
+
+    (t0, q0), (t1, q1) = count(sample), count(back)
+    return "quad" if q1 < q0 else "triangle" if t1 < t0 else None
+
+
 def check_output(mesh, path, *, file_format: str | None = None, binary: bool | None = None) -> str:
     """Fail now if the output format cannot hold ``mesh``; return the format name.
 
     Writes a sample of the mesh (one cell of every cell block and tag
-    combination) in the output format to a temporary directory, so that a
-    refusal of the writer comes before hours of smoothing rather than after.
+    combination) in the output format to a temporary directory and reads it
+    back, so that a writer's refusal, or a writer that silently drops a cell
+    type (WKT keeps only triangles), is found before smoothing rather than after.
 
     Raises
     ------
@@ -837,6 +863,9 @@ def check_output(mesh, path, *, file_format: str | None = None, binary: bool | N
             target = Path(d) / ("sample" + ("".join(p.suffixes[-2:]) if fmt in ("permas", "netgen") else p.suffix))
             with _quiet():
                 _write_meshio(str(target), sample, fmt, sample_src, binary, final=target)
+            lost = _lost_cells(sample, target, fmt)
+        if lost:
+            raise MeshWriteError(f"{where}: the {fmt} format cannot hold this mesh: its {lost} cells would be lost")
     except AngleSmoothError:
         raise
     except MemoryError:

@@ -34,7 +34,7 @@ input_format_option = click.option("--input-format", metavar="FORMAT",
 output_format_option = click.option("--output-format", metavar="FORMAT",
                                      help="Format of OUTPUT (needed for '-'), named as for --input-format; also "
                                           "gmsh22 / gmsh41 (msh22 / msh41) for an MSH version.")
-binary_option = click.option("--ascii/--binary", "binary", default=None,
+binary_option = click.option("--binary/--ascii", "binary", default=None,
                              help="Encoding of OUTPUT where its format has a choice (MSH, VTU, VTK, PLY, STL; XDMF: "
                                   "inline XML / HDF5) [default: the input's when the format is the same, else the "
                                   "writer's: binary VTU/VTK, XDMF with HDF5, ASCII MSH].")
