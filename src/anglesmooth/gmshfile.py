@@ -186,15 +186,14 @@ def _node_dim_tags(m, blocks, n: int) -> np.ndarray:
     return out
 
 
-def _entities(m, pts, blocks, phys, dim_tags, source_table):
+def _entities(m, pts, blocks, phys, dim_tags, node_keys, source_table):
     """{(dim, tag): (box, physical tags, bounding tags)} in the order to write."""
     table: dict[tuple[int, int], tuple] = dict(source_table or {})
     bounding_sets = m.cell_sets.get("gmsh:bounding_entities")
     extra: dict[tuple[int, int], list] = {}
     for dim, tag, b, rows in blocks:
         extra.setdefault((dim, tag), []).append((b, rows))
-    uniq_nodes = np.unique(dim_tags, axis=0) if len(dim_tags) else np.zeros((0, 2), np.int64)
-    for d, t in uniq_nodes.tolist():
+    for d, t in node_keys:
         extra.setdefault((d, t), [])
     for key in sorted(extra):
         if key in table:
@@ -222,8 +221,12 @@ def _entities(m, pts, blocks, phys, dim_tags, source_table):
 def _valid_tags(tags, n: int) -> np.ndarray:
     if tags is not None:
         t = np.asarray(tags, dtype=np.int64).reshape(-1)
-        if t.shape == (n,) and n and t.min() > 0 and np.unique(t).size == n:
-            return t
+        if t.shape == (n,) and n and t.min() > 0:
+            if (t[1:] > t[:-1]).all():  # the usual case (gmsh writes increasing tags): no sort needed
+                return t
+            s = np.sort(t)
+            if (s[1:] != s[:-1]).all():
+                return t
     return np.arange(1, n + 1, dtype=np.int64)
 
 
@@ -243,14 +246,14 @@ def write(path, m, *, binary: bool, entities=None, node_tags=None) -> None:
     phys = _cell_tags(m, "gmsh:physical")
     blocks = _element_blocks(m, geo)
     dim_tags = _node_dim_tags(m, blocks, n)
-    table = _entities(m, pts, blocks, phys, dim_tags, entities)
-    tags = _valid_tags(node_tags, n)
     # node blocks: runs of consecutive points on one entity, so that the node order is kept
     # (the format allows several blocks of one entity; gmsh and meshio read them)
     change = np.flatnonzero((dim_tags[1:] != dim_tags[:-1]).any(axis=1)) + 1 if n else np.zeros(0, np.int64)
     starts = np.concatenate([[0], change]).astype(np.int64) if n else np.zeros(0, np.int64)
     counts = np.diff(np.concatenate([starts, [n]])).astype(np.int64)
     block_keys = dim_tags[starts]
+    table = _entities(m, pts, blocks, phys, dim_tags, sorted(set(map(tuple, block_keys.tolist()))), entities)
+    tags = _valid_tags(node_tags, n)
     size_t, c_int = "u8", "i4"
     with open(path, "wb") as fh:
         out = _Out(fh, binary)
