@@ -7,8 +7,10 @@ when OUTPUT is ``-``, the JSON report with ``--json -``).
 Modules: ``main`` (the group, the default command, the entry point), one module
 per command (``smooth``, ``check``, ``compare``), ``options`` (shared click
 options), ``outputs`` (console, gate lines, progress, the JSON file),
-``meshfiles`` (stdin/stdout, path checks) and ``errors`` (exit codes, the one
-error line).  Imports run one way: commands -> options/outputs/meshfiles -> errors.
+``meshfiles`` (stdin/stdout, path checks), ``formats`` (how gate results are
+reported: ``--format table|github``, ``--junit-xml``), ``schema`` (the ``schema``
+command) and ``errors`` (exit codes, the one error line).  ``main`` also merges
+the configuration file (:mod:`anglesmooth.config`) under the options.  Imports run one way: commands -> options/outputs/meshfiles -> errors.
 
 Exit codes: 0 success, 1 a quality gate failed, 2 usage error, 3 unreadable /
 unsupported / invalid input or unwritable output, 4 internal error (a bug),

@@ -6,6 +6,7 @@ import contextlib
 import os
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import click
@@ -22,6 +23,9 @@ from .meshfiles import STDIO
 #: Cells above which the progress bar is shown by default (when stderr is a terminal).
 PROGRESS_MIN_CELLS = 50_000
 
+#: Seconds between the plain progress lines printed instead of the bar when stderr is not a terminal (CI logs).
+PROGRESS_EVERY_S = 5.0
+
 
 def make_console(quiet: bool) -> Console:
     # Not a terminal (CI logs, pipes): rich would assume 80 columns and squeeze the tables.
@@ -29,11 +33,18 @@ def make_console(quiet: bool) -> Console:
     return Console(stderr=True, quiet=quiet, highlight=False, width=wide)
 
 
-def gate_thresholds(gate_opts: dict) -> tuple[dict, bool]:
+#: ``click.Context.meta`` key of the gate thresholds of a configuration file (set by ``main``).
+CONFIG_GATES = "anglesmooth.config_gates"
+
+
+def gate_thresholds(gate_opts: dict, safe: bool = False) -> tuple[dict, bool]:
+    """Thresholds from the configuration file, the gate file and the options (in that order, the last wins)."""
     exit_zero = gate_opts.pop("exit_zero", False)
     gate_file = gate_opts.pop("gate_file", None)
+    ctx = click.get_current_context(silent=True)
+    base = ctx.meta.get(CONFIG_GATES) if ctx is not None else None
     try:
-        return resolve_thresholds(gate_opts, gate_file), exit_zero
+        return resolve_thresholds(gate_opts, gate_file, base=base, safe=safe), exit_zero
     except GateFileError as exc:
         raise Usage(str(exc)) from None
 
@@ -97,6 +108,9 @@ def progress_bar(console: Console, total: int, n_cells: int, wanted: bool | None
     if not (wanted or auto) or console.quiet or total == 0:
         yield None
         return
+    if not console.is_terminal:  # a CI log: a transient bar would never show; a plain line now and then
+        yield _progress_lines(console, total, n_cells, compiled)
+        return
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
@@ -109,3 +123,19 @@ def progress_bar(console: Console, total: int, n_cells: int, wanted: bool | None
             bar.update(task, completed=k, description=f"smoothing (displacement {displacement:.2e})")
 
         yield callback
+
+
+def _progress_lines(console: Console, total: int, n_cells: int, compiled: bool):
+    """A pass callback printing one plain line at most every :data:`PROGRESS_EVERY_S` seconds, and at the last pass."""
+    start = last = time.monotonic()
+    note = " (the first pass loads the compiled kernels; the first run ever compiles them)" if compiled else ""
+    plain(console, f"smoothing: up to {total} passes over {n_cells} cells{note}")
+
+    def callback(k, points, displacement):
+        nonlocal last
+        now = time.monotonic()
+        if now - last >= PROGRESS_EVERY_S or k == total:
+            last = now
+            plain(console, f"smoothing: pass {k}/{total}, displacement {displacement:.2e}, {now - start:.1f} s")
+
+    return callback

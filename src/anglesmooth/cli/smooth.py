@@ -14,13 +14,14 @@ from ..smoothers import SMOOTHERS
 from ..smoothers._fast import active as fast_active
 from ..smoothers._fast import kernel_mode
 from ..topology import build_topology
+from . import formats
 from .errors import EXIT_GATE, handle_errors
-from .meshfiles import (STDIO, check_output, check_paths, display, extra_fixed, fix_node_indices, read_fix_nodes,
-                        read_mesh, write_mesh)
+from .meshfiles import (STDIO, check_output, check_paths, check_writable, display, extra_fixed, fix_node_indices,
+                        read_fix_nodes, read_mesh, write_mesh)
 from .options import (binary_option, debug_option, gate_options, input_format_option, json_option,
                       no_guard_option, node_numbering_option, order_option, output_format_option, quiet_option)
-from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, progress_bar,
-                      report_gates, stage_json, warn_invalid)
+from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, plain, progress_bar,
+                      stage_json, warn_invalid)
 
 
 @click.command("smooth")
@@ -48,6 +49,8 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
 @binary_option
 @gate_options
 @json_option
+@formats.format_option
+@formats.junit_option
 @click.option("--plot", type=click.Path(dir_okay=False), metavar="PNG",
               help="Write a PNG: mesh before/after coloured by minimum angle, angle histograms.")
 @click.option("--progress/--no-progress", default=None,
@@ -56,8 +59,8 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
 @debug_option
 @handle_errors
 def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, fix_nodes, node_numbering, force,
-               in_place, input_format, output_format, binary, json_path, plot, progress, quiet, debug,
-               **gate_opts) -> None:
+               in_place, input_format, output_format, binary, json_path, report_format, junit_path, plot, progress,
+               quiet, debug, **gate_opts) -> None:
     """Smooth INPUT and write OUTPUT ('-' for stdin/stdout); gates apply to the result, after writing it.
 
     An existing OUTPUT of the input's format (by its extension: 'anglesmooth a.msh b.msh' where b.msh exists,
@@ -68,6 +71,9 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
     output = check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
                          output_format=output_format, json_path=json_path)
     thresholds, exit_zero = gate_thresholds(gate_opts)
+    formats.check_junit_path(junit_path)
+    if junit_path is not None:
+        check_writable(junit_path, "cannot write JUnit XML")
     kernel_mode()  # a bad ANGLESMOOTH_KERNEL is a usage error before any work
     if plot:
         from ..plot import require_matplotlib
@@ -86,7 +92,7 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
         result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
                             callback=callback)
     after = summarize(result.points, topo)
-    gates = evaluate(after, thresholds)
+    gates = evaluate(after, thresholds, result.points, topo)
     document = report.smooth_json(
         input=name, output=out_name, method=method, guard=not no_guard, order=order, passes=result.passes,
         passes_requested=passes, tol=tol, displacements=result.displacements, rejected=result.rejected,
@@ -94,22 +100,30 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
     # the JSON file is staged first and renamed after the mesh is written: an error in
     # either leaves neither behind
     staged = stage_json(json_path, document) if json_path not in (None, STDIO) else None
+    outcomes = [formats.Outcome(out_name, gates)]
+    junit = None
     try:
+        junit = formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth smooth")) if junit_path else None
         write_mesh(mesh, output, result.points, output_format, binary)
     except BaseException:
-        if staged is not None:
-            staged.unlink(missing_ok=True)
+        for tmp in (staged, junit):
+            if tmp is not None:
+                tmp.unlink(missing_ok=True)
         raise
     if staged is not None:
         os.replace(staged, json_path)
     elif json_path == STDIO:
         emit_json(json_path, document)
+    formats.commit(junit, junit_path)
     run = {"passes performed": f"{result.passes} / {passes}", "rejected moves": result.rejected,
            "last displacement": f"{result.displacements[-1] if result.displacements else 0:.3g} x mean edge",
            "time": f"{result.elapsed_s:.3f} s"}
     guard = "guarded" if not no_guard else "no guard"
     console.print(report.smooth_table(before, after, run, title=f"{name} -> {out_name}: {method}, {guard}, {order}"))
-    passed = report_gates(console, out_name, gates)
+    if gates:  # without gates there is nothing to report
+        formats.report(report_format, outcomes, lambda text: plain(console, text),
+                       data_on_stdout=STDIO in (output, json_path))
+    passed = all(g.passed for g in gates)
     if plot:
         from ..plot import plot_smooth
 
