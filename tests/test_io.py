@@ -297,6 +297,21 @@ def test_roundtrip(msh_files, tmp_path, model, var, target):
         assert np.array_equal(_flat_data(r.source.mesh, "gmsh:physical"), _flat_data(m.source.mesh, "gmsh:physical"))
 
 
+@pytest.mark.parametrize("var", ["41a", "41b"])
+@pytest.mark.parametrize("model", list(MODELS))
+def test_gmsh_reopens_msh41_output(msh_files, tmp_path, model, var):
+    """Every MSH 4.1 output (anglesmooth's own writer): gmsh sees the same groups, entities, counts, nodes."""
+    from gmsh_check import gmsh_view, same_for_gmsh
+
+    m = asio.read(msh_files[model, var])
+    new = _perturb(m)
+    asio.write(m, tmp_path / "o.msh", points=new)
+    same_for_gmsh(msh_files[model, var], tmp_path / "o.msh")
+    got = gmsh_view(tmp_path / "o.msh")["xyz"]
+    tags = asio.node_tags(m)
+    assert np.array_equal(np.array([got[t][:2] for t in tags.tolist()]), new)  # node tags kept, coordinates exact
+
+
 def test_vtu_back_to_msh_keeps_everything(msh_files, tmp_path):
     m = asio.read(msh_files["two", "41a"])
     asio.write(m, tmp_path / "a.vtu")
