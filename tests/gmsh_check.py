@@ -22,7 +22,7 @@ def gmsh_view(path) -> dict:
             for ty, tg in zip(types, tags):
                 counts[d, t, int(ty)] = len(tg)
         node_tags, coords, _ = gmsh.model.mesh.getNodes()
-        return {"groups": groups, "entities": entities, "counts": counts, "nodes": len(node_tags),
+        return {"groups": groups, "entities": entities, "counts": counts, "nodes": len(node_tags), "tags": node_tags,
                 "xyz": dict(zip(node_tags.tolist(), coords.reshape(-1, 3).tolist()))}
     finally:
         gmsh.finalize()

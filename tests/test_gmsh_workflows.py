@@ -403,6 +403,25 @@ def test_vtu_encoding_kept_and_chosen(msh, tmp_path):
     assert r.exit_code == 3 and "format abaqus has no ASCII/binary choice" in one_error(r)
 
 
+def test_vtk_encoding_kept(msh, tmp_path):
+    m = anglesmooth.read(msh["partial", "41a"])
+    for binary, word in ((False, b"ASCII"), (True, b"BINARY")):
+        asio.write(m, tmp_path / "in.vtk", binary=binary)
+        r = run(tmp_path / "in.vtk", tmp_path / "out.vtk", "-q", "--force")
+        assert r.exit_code == 0, r.stderr
+        assert (tmp_path / "out.vtk").read_bytes().split(b"\n")[2].strip() == word
+
+
+def test_reads_in_threads_keep_their_own_node_tags(msh):
+    from concurrent.futures import ThreadPoolExecutor
+
+    paths = [msh[name, "41b"] for name in ("bl", "partial", "unnamed", "xy")] * 3
+    with ThreadPoolExecutor(4) as pool:
+        meshes = list(pool.map(anglesmooth.read, paths))
+    for path, m in zip(paths, meshes):
+        assert np.array_equal(asio.node_tags(m), np.sort(gmsh_view(path)["tags"]))
+
+
 def test_xdmf_heavy_data_in_hdf5(msh, tmp_path):
     out = tmp_path / "o.xdmf"
     r = run(msh["bl", "41a"], out, "-q")

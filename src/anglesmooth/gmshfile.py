@@ -29,6 +29,7 @@ Writing
 
 from __future__ import annotations
 
+import threading
 from functools import partial
 from typing import Any
 
@@ -36,14 +37,21 @@ import numpy as np
 
 __all__ = ["gmsh4_entities", "gmsh_data", "gmsh_tags", "install", "int_tags", "take_captured", "write"]
 
-_CAPTURED: dict[str, Any] = {}
+_LOCAL = threading.local()  # per thread: reads in several threads do not mix their captures
 _INSTALLED = False
 
 
+def _captured() -> dict[str, Any]:
+    if not hasattr(_LOCAL, "data"):
+        _LOCAL.data = {}
+    return _LOCAL.data
+
+
 def take_captured() -> dict[str, Any]:
-    """What the last gmsh read left behind: ``node_tags`` (1-based, per point) and ``entities``."""
-    out = dict(_CAPTURED)
-    _CAPTURED.clear()
+    """What this thread's last gmsh read left behind: ``node_tags`` (1-based, per point) and ``entities``."""
+    data = _captured()
+    out = dict(data)
+    data.clear()
     return out
 
 
@@ -59,7 +67,7 @@ def install() -> None:
 
         def _read_nodes(*args, **kwargs):
             out = orig(*args, **kwargs)
-            _CAPTURED["node_tags"] = np.asarray(out[1], dtype=np.int64) + offset
+            _captured()["node_tags"] = np.asarray(out[1], dtype=np.int64) + offset
             return out
 
         mod._read_nodes = _read_nodes
@@ -96,7 +104,7 @@ def _read_entities_41(f, is_ascii: bool, data_size):
                 bounding_entities[d][tag] = bounds
             table[(d, int(tag))] = (np.array(box, np.float64), tuple(int(p) for p in phys), tuple(int(b) for b in bounds))
     _fast_forward_to_end_block(f, "Entities")
-    _CAPTURED["entities"] = table
+    _captured()["entities"] = table
     return physical_tags, bounding_entities
 
 
