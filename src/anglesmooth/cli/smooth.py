@@ -42,7 +42,7 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
                    "--node-numbering gmsh.")
 @node_numbering_option
 @click.option("--force", is_flag=True,
-              help="Allow OUTPUT to be the input file, or an existing file of the input's format (see below).")
+              help="Allow OUTPUT to be the input file, or an existing file of the input's format (see above).")
 @click.option("--in-place", is_flag=True, help="Overwrite INPUT (give no OUTPUT).")
 @input_format_option
 @output_format_option
