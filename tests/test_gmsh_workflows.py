@@ -108,6 +108,17 @@ def _plane(rotation):
     return build
 
 
+def _periodic():
+    """A square whose right side is periodic with its left side ($Periodic)."""
+    occ = gmsh.model.occ
+    occ.addRectangle(0, 0, 0, 1, 1)
+    occ.synchronize()
+    left = [t for _, t in gmsh.model.getEntities(1) if abs(occ.getCenterOfMass(1, t)[0]) < 1e-9]
+    right = [t for _, t in gmsh.model.getEntities(1) if abs(occ.getCenterOfMass(1, t)[0] - 1) < 1e-9]
+    gmsh.model.mesh.setPeriodic(1, right, left, [1, 0, 0, 1, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1])
+    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.1)
+
+
 def _rotation(axis, angle) -> np.ndarray:
     k = np.asarray(axis, float) / np.linalg.norm(axis)
     K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
@@ -130,6 +141,7 @@ MODELS = {
     "xz": _plane((1, 0, 0, math.pi / 2)),  # the x-z plane of axisymmetric r-z models
     "tilted": _plane((1, 2, 3, 0.7)),
     "moved": _plane(None),  # + _moved_by_gmsh after meshing
+    "periodic": _periodic,
 }
 VARIANTS = {"41a": (4.1, 0), "41b": (4.1, 1), "22a": (2.2, 0)}
 
@@ -214,6 +226,29 @@ def test_library_writes_every_version_gmsh_reopens(msh, tmp_path, name, target, 
         back = anglesmooth.read(out)
         assert back.n_points == m.n_points and back.n_cells == m.n_cells
         assert np.array_equal(back.points, m.points)  # unsmoothed: bit-identical, node order kept
+
+
+def _periodic_pairs(path) -> set:
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(str(path))
+        out = set()
+        for _, t in gmsh.model.getEntities(1):
+            master, nodes, masters, affine = gmsh.model.mesh.getPeriodicNodes(1, t)
+            out |= {(t, master, int(a), int(b), tuple(affine)) for a, b in zip(nodes, masters)}
+        return out
+    finally:
+        gmsh.finalize()
+
+
+@pytest.mark.parametrize("var", ["41a", "41b"])
+def test_msh41_keeps_periodic_links(msh, tmp_path, var):
+    r = run(msh["periodic", var], tmp_path / "o.msh", "-q")
+    assert r.exit_code == 0, r.stderr
+    want = _periodic_pairs(msh["periodic", var])
+    assert len(want) > 5 and _periodic_pairs(tmp_path / "o.msh") == want
+    same_for_gmsh(msh["periodic", var], tmp_path / "o.msh")
 
 
 def test_msh41_keeps_node_data_and_element_data(msh, tmp_path):
