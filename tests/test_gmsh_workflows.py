@@ -119,6 +119,19 @@ def _periodic():
     gmsh.option.setNumber("Mesh.MeshSizeMax", 0.1)
 
 
+def _save_all():
+    """Two squares, only the right one in a physical group, saved with Mesh.SaveAll = 1."""
+    occ = gmsh.model.occ
+    a = occ.addRectangle(0, 0, 0, 1, 1)
+    b = occ.addRectangle(1, 0, 0, 1, 1)
+    occ.fragment([(2, a)], [(2, b)])
+    occ.synchronize()
+    right = [t for _, t in gmsh.model.getEntities(2) if gmsh.model.occ.getCenterOfMass(2, t)[0] > 1]
+    gmsh.model.addPhysicalGroup(2, right, 5, name="right")
+    gmsh.option.setNumber("Mesh.SaveAll", 1)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.2)
+
+
 def _rotation(axis, angle) -> np.ndarray:
     k = np.asarray(axis, float) / np.linalg.norm(axis)
     K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
@@ -142,6 +155,7 @@ MODELS = {
     "tilted": _plane((1, 2, 3, 0.7)),
     "moved": _plane(None),  # + _moved_by_gmsh after meshing
     "periodic": _periodic,
+    "saveall": _save_all,
 }
 VARIANTS = {"41a": (4.1, 0), "41b": (4.1, 1), "22a": (2.2, 0)}
 
@@ -249,6 +263,18 @@ def test_msh41_keeps_periodic_links(msh, tmp_path, var):
     want = _periodic_pairs(msh["periodic", var])
     assert len(want) > 5 and _periodic_pairs(tmp_path / "o.msh") == want
     same_for_gmsh(msh["periodic", var], tmp_path / "o.msh")
+
+
+def test_elements_outside_every_physical_group(msh, tmp_path):
+    """meshio alone refuses such MSH 4.1 files ("Incompatible cell data"); the left square is region 0."""
+    m = anglesmooth.read(msh["saveall", "41a"])
+    assert set(m.physical) == {(2, 5)} and sorted(np.unique(m.triangle_region).tolist()) == [0, 5]
+    r = run(msh["saveall", "41a"], tmp_path / "o.msh", "-q")
+    assert r.exit_code == 0, r.stderr
+    same_for_gmsh(msh["saveall", "41a"], tmp_path / "o.msh")
+    topo = anglesmooth.build_topology(m)
+    interface = np.intersect1d(m.triangles[m.triangle_region == 0], m.triangles[m.triangle_region == 5])
+    assert interface.size > 3 and topo.fixed[interface].all()  # the region interface stays fixed
 
 
 def test_msh41_keeps_node_data_and_element_data(msh, tmp_path):

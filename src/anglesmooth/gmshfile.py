@@ -5,7 +5,8 @@ Reading
     behind, in :func:`take_captured`, the gmsh node tags of the points (MSH 2.2,
     4.0, 4.1) and the whole MSH 4.1 ``$Entities`` table: bounding boxes, *all*
     physical tags of every entity and its bounding entities (meshio keeps one
-    physical tag per entity and no bounding box).
+    physical tag per entity and no bounding box).  It also reads MSH 4.1 files
+    with elements outside every physical group, which meshio refuses.
 
 Writing
     meshio's MSH 4.1 writer refuses two cell blocks of one entity ("non-unique
@@ -76,7 +77,30 @@ def install() -> None:
     wrap(_gmsh40, 0)
     wrap(_gmsh41, 1)  # meshio 5.3 returns tag - 1 there
     _gmsh41._read_entities = _read_entities_41
+    _gmsh41._read_elements = _physical_per_block(_gmsh41._read_elements)
     _INSTALLED = True
+
+
+def _physical_per_block(orig):
+    """meshio's MSH 4.1 ``_read_elements``, with ``gmsh:physical`` for every cell block.
+
+    meshio appends a ``gmsh:physical`` array only for blocks whose entity has a
+    physical tag, so a file with elements outside every physical group
+    (``Mesh.SaveAll = 1``) has fewer arrays than blocks and meshio refuses it
+    ("Incompatible cell data"); the missing blocks get 0 (no group).
+    """
+
+    def _read_elements(f, point_tags, physical_tags, *args, **kwargs):
+        cells, cell_data, cell_sets = orig(f, point_tags, physical_tags, *args, **kwargs)
+        phys, geo = cell_data.get("gmsh:physical"), cell_data.get("gmsh:geometrical")
+        if phys is not None and geo is not None and len(phys) != len(cells) and physical_tags:
+            cell_data["gmsh:physical"] = [
+                np.full(len(g), (list(physical_tags[c.dim].get(int(g[0]), [])) or [0])[0] if len(g) else 0, int)
+                for c, g in zip(cells, geo)
+            ]
+        return cells, cell_data, cell_sets
+
+    return _read_elements
 
 
 def _read_entities_41(f, is_ascii: bool, data_size):
