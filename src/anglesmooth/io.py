@@ -135,6 +135,10 @@ def _reason(exc: BaseException) -> str:
 def read(path, *, file_format: str | None = None) -> Mesh2D:
     """Read a planar triangle / quad mesh from any format meshio reads.
 
+    A mesh with three coordinates may lie in any plane: its plane is fitted
+    here (``Mesh2D.frame``, see :mod:`anglesmooth.plane`) and ``points`` are
+    the coordinates in that plane (x, y for z = const).
+
     Parameters
     ----------
     path : str or os.PathLike
