@@ -342,14 +342,19 @@ def write(path, m, *, binary: bool, entities=None, node_tags=None) -> None:
         elem_tags, t0 = [], 1
         for dim, etag, b, rows in blocks:
             c = m.cells[b]
-            conn = tags[_meshio_to_gmsh_order(c.type, np.asarray(c.data)[rows])]
+            data = np.asarray(c.data)
+            conn = tags[_meshio_to_gmsh_order(c.type, data if len(rows) == len(data) else data[rows])]
             ids = np.arange(t0, t0 + len(rows), dtype=np.int64)
             elem_tags.append(ids)
             t0 += len(rows)
             if binary:
                 fh.write(np.array([dim, etag, _meshio_to_gmsh_type[c.type]], np.int32).tobytes())
                 fh.write(np.array([len(rows)], np.uint64).tobytes())
-                fh.write(np.column_stack([ids, conn]).astype(np.uint64).tobytes())
+                rec = np.empty((len(rows), 1 + conn.shape[1]), np.uint64)  # one buffer, no stacked copies
+                rec[:, 0] = ids
+                rec[:, 1:] = conn
+                rec.tofile(fh)
+                del rec
             else:
                 out.text(f"{dim} {etag} {_meshio_to_gmsh_type[c.type]} {len(rows)}\n")
                 out.table([ids, conn], ["i", "i"])
