@@ -599,3 +599,14 @@ def test_cli_subprocess_on_boundary_layer(msh, tmp_path):
     report = json.loads(p.stdout)
     assert report["after"]["min_angle"] >= report["before"]["min_angle"]
     same_for_gmsh(msh["bl", "41b"], out)
+
+
+def test_msh41_benchmark_script_runs_tiny():
+    """benchmarks/bench_msh41.py (the figures in benchmarks/README.md) on a tiny mesh: its table comes out."""
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    script = SRC.parent / "benchmarks" / "bench_msh41.py"
+    p = subprocess.run([sys.executable, str(script), "2000", "--repeat", "1"], capture_output=True, env=env,
+                       timeout=300, text=True)
+    assert p.returncode == 0, p.stderr
+    rows = [ln for ln in p.stdout.splitlines() if ln.startswith("| binary") or ln.startswith("| ASCII")]
+    assert len(rows) == 2 and all(len(r.split("|")) == 9 for r in rows)
