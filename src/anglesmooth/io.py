@@ -144,8 +144,8 @@ def read(path, *, file_format: str | None = None) -> Mesh2D:
     path : str or os.PathLike
         The mesh file.
     file_format : str, optional
-        A meshio format name (``"gmsh"``, ``"vtu"``, ...) for files whose
-        extension does not tell.
+        A format name or alias (``"gmsh"``, ``"msh"``, ``"vtu"``, ...; see
+        :mod:`anglesmooth.formats`) for files whose extension does not tell.
 
     Returns
     -------
@@ -257,14 +257,16 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
     points : (N, 2) array, optional
         New coordinates (default ``mesh.points``).
     file_format : str, optional
-        meshio format name; default from the extension (``.msh`` is gmsh).
+        Format name or alias (``"gmsh41"``, ``"msh"``, ``"vtu"``, ...); default
+        from the extension (``.msh`` is gmsh).
     binary : bool, optional
-        Binary or ASCII where the format has both; default: the input's mode
-        for gmsh, meshio's default otherwise.
+        Binary or ASCII where the format has both (XDMF: HDF5 or inline XML);
+        default: the input's encoding when it has the output's format (gmsh:
+        the input's MSH mode), the writer's default otherwise.
 
     Raises
     ------
-    MeshWriteError, InvalidMeshError
+    MeshWriteError, InvalidMeshError, UnknownFormatError
 
     Examples
     --------
