@@ -132,6 +132,16 @@ def _save_all():
     gmsh.option.setNumber("Mesh.MeshSizeMax", 0.2)
 
 
+def _two_groups_one_surface():
+    """One surface in two physical groups: MSH 2.2 writes every triangle twice (once per group)."""
+    occ = gmsh.model.occ
+    s = occ.addRectangle(0, 0, 0, 1, 1)
+    occ.synchronize()
+    gmsh.model.addPhysicalGroup(2, [s], 1, name="domain")
+    gmsh.model.addPhysicalGroup(2, [s], 2, name="all")
+    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.15)
+
+
 def _rotation(axis, angle) -> np.ndarray:
     k = np.asarray(axis, float) / np.linalg.norm(axis)
     K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
@@ -156,6 +166,7 @@ MODELS = {
     "moved": _plane(None),  # + _moved_by_gmsh after meshing
     "periodic": _periodic,
     "saveall": _save_all,
+    "twogroups": _two_groups_one_surface,
 }
 VARIANTS = {"41a": (4.1, 0), "41b": (4.1, 1), "22a": (2.2, 0)}
 
@@ -275,6 +286,21 @@ def test_elements_outside_every_physical_group(msh, tmp_path):
     topo = anglesmooth.build_topology(m)
     interface = np.intersect1d(m.triangles[m.triangle_region == 0], m.triangles[m.triangle_region == 5])
     assert interface.size > 3 and topo.fixed[interface].all()  # the region interface stays fixed
+
+
+def test_msh22_element_in_two_groups_is_one_cell(msh, tmp_path):
+    """Without this, every node looked non-manifold (each triangle twice) and nothing was smoothed."""
+    raw = meshio.read(msh["twogroups", "22a"])
+    assert sum(len(c) for c in raw.cells if c.type == "triangle") == 2 * anglesmooth.read(msh["twogroups", "41a"]).n_cells
+    m = anglesmooth.read(msh["twogroups", "22a"])
+    assert m.n_cells == anglesmooth.read(msh["twogroups", "41a"]).n_cells
+    assert sorted(m.groups) == ["all", "domain"] and sorted(m.physical) == [(2, 1), (2, 2)]
+    fixed = anglesmooth.build_topology(m).fixed
+    assert (~fixed).sum() > 10
+    r = run(msh["twogroups", "22a"], tmp_path / "o.msh", "-q")
+    assert r.exit_code == 0, r.stderr
+    same_for_gmsh(msh["twogroups", "22a"], tmp_path / "o.msh")
+    assert not np.array_equal(meshio.read(tmp_path / "o.msh").points, raw.points)
 
 
 def test_msh41_keeps_node_data_and_element_data(msh, tmp_path):

@@ -23,7 +23,7 @@ from .gmshfile import int_tags as _int_tags
 from .mesh import Mesh2D
 from .plane import PlaneFrame, fit_plane
 
-__all__ = ["Source", "as_mesh2d", "copy_with_points", "node_tags", "out_mesh", "sample", "to_mesh2d", "to_meshio"]
+__all__ = ["Source", "as_mesh2d", "first_of_duplicates", "copy_with_points", "node_tags", "out_mesh", "sample", "to_mesh2d", "to_meshio"]
 
 _TRI = ("triangle", "triangle6", "triangle7")
 _QUAD = ("quad", "quad8", "quad9")
@@ -136,14 +136,21 @@ def to_mesh2d(m, src: Source) -> Mesh2D:
         keep = np.ones(s.shape[0], bool)
         keep[1:] = s[1:, 0] != s[:-1, 0]
         midside = s[keep]
+    cells = {"tri": [cat(tri, 3), cat(tri_reg, 0) if key is not None else None, cat(tri_ids, 0)],
+             "quad": [cat(quad, 4), cat(quad_reg, 0) if key is not None else None, cat(quad_ids, 0)]}
+    if src.gmsh_version == "2.2":  # MSH 2.2 repeats an element once per physical group it belongs to
+        for parts in cells.values():
+            keep = first_of_duplicates(parts[0])
+            if not keep.all():
+                parts[:] = [None if a is None else a[keep] for a in parts]
     return Mesh2D(
         points=pts,
-        triangles=cat(tri, 3),
-        quads=cat(quad, 4),
-        triangle_region=cat(tri_reg, 0) if key is not None else None,
-        quad_region=cat(quad_reg, 0) if key is not None else None,
-        triangle_ids=cat(tri_ids, 0),
-        quad_ids=cat(quad_ids, 0),
+        triangles=cells["tri"][0],
+        quads=cells["quad"][0],
+        triangle_region=cells["tri"][1],
+        quad_region=cells["quad"][1],
+        triangle_ids=cells["tri"][2],
+        quad_ids=cells["quad"][2],
         pinned=pinned,
         midside=midside,
         centres=cat(cens, 5),
@@ -152,6 +159,32 @@ def to_mesh2d(m, src: Source) -> Mesh2D:
         source=src,
         frame=frame,
     )
+
+
+def first_of_duplicates(cells: np.ndarray) -> np.ndarray:
+    """Mask keeping the first of cells with the same node set (any order).
+
+    >>> first_of_duplicates(np.array([[0, 1, 2], [1, 2, 3], [2, 0, 1]])).tolist()
+    [True, True, False]
+    """
+    if len(cells) < 2:
+        return np.ones(len(cells), bool)
+    cells = np.asarray(cells, dtype=np.int64)
+    if cells.shape[1] == 3 and cells.max() < 2**21:  # sorted corners packed in one int64: one 1D sort
+        a, b, c = cells[:, 0], cells[:, 1], cells[:, 2]
+        lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
+        key = (lo << 42) | ((a + b + c - lo - hi) << 21) | hi
+        order = np.argsort(key, kind="stable")  # stable: among equal cells the first occurrence leads
+        ks = key[order]
+        same = ks[1:] == ks[:-1]
+    else:
+        s = np.sort(cells, axis=1)
+        order = np.lexsort(s.T[::-1])  # rows in lexicographic order (stable as well)
+        ordered = s[order]
+        same = (ordered[1:] == ordered[:-1]).all(axis=1)
+    keep = np.ones(len(cells), bool)
+    keep[order[1:][same]] = False
+    return keep
 
 
 def _cell_masks(m) -> dict[str, list[np.ndarray]]:
