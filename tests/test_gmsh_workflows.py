@@ -303,6 +303,12 @@ def test_msh22_element_in_two_groups_is_one_cell(msh, tmp_path):
     assert not np.array_equal(meshio.read(tmp_path / "o.msh").points, raw.points)
 
 
+def test_msh40_output_is_refused_before_smoothing(msh, tmp_path):
+    r = run(msh["bl", "41a"], tmp_path / "o.msh", "--output-format", "msh40")
+    assert r.exit_code == 3 and "MSH 4.0 output is not supported" in one_error(r) and "gmsh41" in one_error(r)
+    assert os.listdir(tmp_path) == []
+
+
 def test_msh41_keeps_node_data_and_element_data(msh, tmp_path):
     m = anglesmooth.read(msh["bl", "41a"])
     src = m.source.mesh

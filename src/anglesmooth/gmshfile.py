@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["gmsh4_entities", "gmsh_data", "gmsh_tags", "install", "int_tags", "take_captured", "write"]
+__all__ = ["gmsh_data", "gmsh_tags", "install", "int_tags", "take_captured", "write"]
 
 _LOCAL = threading.local()  # per thread: reads in several threads do not mix their captures
 _INSTALLED = False
@@ -404,21 +404,6 @@ def int_tags(arr, n: int) -> np.ndarray | None:
         if not (np.isfinite(a).all() and (a == np.round(a)).all()):
             return None
     return a.astype(np.int64)
-
-
-def gmsh4_entities(m) -> None:
-    """Give a mesh without gmsh entities one entity per cell block (MSH 4 needs them)."""
-    n = len(m.points)
-    if "gmsh:dim_tags" in m.point_data and "gmsh:geometrical" in m.cell_data:
-        return
-    m.cell_data["gmsh:geometrical"] = [np.full(len(c), k + 1, np.int32) for k, c in enumerate(m.cells)]
-    two_d = [k for k, c in enumerate(m.cells) if c.dim == 2] or [0]
-    dim_tags = np.tile([m.cells[two_d[0]].dim, two_d[0] + 1], (n, 1)).astype(np.int64)
-    order = sorted(range(len(m.cells)), key=lambda k: -m.cells[k].dim)
-    for k in order:  # lower dimensions last: nodes on lines belong to the line entity
-        dim_tags[np.asarray(m.cells[k].data).ravel()] = (m.cells[k].dim, k + 1)
-    m.point_data["gmsh:dim_tags"] = dim_tags
-    m.cell_sets.pop("gmsh:bounding_entities", None)
 
 
 def gmsh_tags(m) -> None:

@@ -13,8 +13,10 @@ Format notes
   written as MSH 2.2 ASCII, which stores physical and geometrical tags per
   element (MSH 4 stores one tag per cell block, and non-gmsh readers merge
   blocks).  Missing gmsh tags are taken from ``medit:ref`` / ``CellEntityIds``
-  or set to 0.  Asking for MSH 4 explicitly (``file_format="gmsh41"``) for a
-  mesh without gmsh entities makes every cell block its own entity.
+  or set to 0.  Asking for MSH 4.1 explicitly (``file_format="gmsh41"``) for a
+  mesh without gmsh entities makes one entity per cell block (or per
+  ``gmsh:geometrical`` tag).  MSH 4.0 is not written (meshio's writer loses
+  entities and groups): a 4.0 input is written back as 4.1.
 * ``.xdmf`` is written with HDF5 data (``NAME.h5`` beside ``NAME.xdmf``), as
   meshio does by default, unless the input was XDMF with inline XML data,
   ``binary=False`` is asked, or h5py is missing.
@@ -49,9 +51,6 @@ from .meshconv import sample as _sample
 from .meshconv import to_mesh2d as _to_mesh2d
 
 __all__ = ["as_mesh2d", "check_output", "node_tags", "output_format", "read", "supported_formats", "to_meshio", "write"]
-
-_GMSH_WRITE_VERSIONS = ("2.2", "4.0", "4.1")
-
 
 @contextlib.contextmanager
 def _quiet():
@@ -355,6 +354,10 @@ def output_format(path, file_format: str | None = None) -> str:
 
 
 def _check_binary(fmt: str, binary: bool | None, where: str) -> None:
+    """Refuse what cannot be written: MSH 4.0, an encoding the format has no choice of."""
+    if fmt == "gmsh40":
+        raise MeshWriteError(f"{where}: MSH 4.0 output is not supported (meshio's 4.0 writer loses the entities "
+                             "and physical groups); write MSH 4.1 (gmsh41) or 2.2 (gmsh22)")
     if binary is not None and fmt not in formats.BINARY_CHOICE:
         raise MeshWriteError(f"{where}: format {fmt} has no ASCII/binary choice ({'binary' if binary else 'ASCII'} asked)")
 
@@ -402,9 +405,10 @@ def _write_meshio(tmp: str, out, fmt: str, src: _Source | None, binary: bool | N
     if fmt in ("gmsh", "gmsh22", "gmsh40", "gmsh41"):
         from meshio import gmsh
 
-        version = {"gmsh22": "2.2", "gmsh40": "4.0", "gmsh41": "4.1"}.get(fmt)
-        if version is None:
-            version = src.gmsh_version if src is not None and src.gmsh_version in _GMSH_WRITE_VERSIONS else "2.2"
+        version = {"gmsh22": "2.2", "gmsh41": "4.1"}.get(fmt)
+        if version is None:  # the input's version; 4.0 (not written, see _check_binary) becomes 4.1
+            old = src.gmsh_version if src is not None else None
+            version = "4.1" if old in ("4", "4.0", "4.1") else "2.2"
         if binary is None:
             binary = bool(src.gmsh_binary) if src is not None and src.gmsh_version else False
         gmshfile.gmsh_tags(out)
@@ -414,9 +418,7 @@ def _write_meshio(tmp: str, out, fmt: str, src: _Source | None, binary: bool | N
             gmshfile.write(tmp, out, binary=binary, entities=gmsh_src.gmsh_entities if gmsh_src else None,
                         node_tags=src.node_tags if src is not None else None)
             return
-        if version == "4.0":
-            gmshfile.gmsh4_entities(out)
-        gmsh.write(tmp, out, fmt_version=version, binary=binary)
+        gmsh.write(tmp, out, fmt_version=version, binary=binary)  # 2.2
         return
     if binary is None:
         binary = _default_binary(fmt, src)
