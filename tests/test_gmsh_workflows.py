@@ -309,6 +309,29 @@ def test_msh40_output_is_refused_before_smoothing(msh, tmp_path):
     assert os.listdir(tmp_path) == []
 
 
+def test_msh41_from_per_element_regions(tmp_path):
+    """Regions per cell and interleaved nodes (not a gmsh file): one entity per region, tags keep the nodes."""
+    from anglesmooth.generate import random_delaunay
+
+    base = random_delaunay(3000, seed=2)
+    region = (np.arange(base.n_cells) * 7) % 30 + 1  # 30 regions, cells of every region everywhere
+    src = meshio.Mesh(np.column_stack([base.points, np.zeros(base.n_points)]), [("triangle", base.triangles)],
+                      point_data={"T": np.arange(base.n_points, dtype=float)}, cell_data={"gmsh:physical": [region]})
+    out = tmp_path / "r.msh"
+    anglesmooth.write(src, out, file_format="gmsh41")
+    view = gmsh_view(out)
+    assert [(d, t) for d, t, _, _ in view["groups"]] == [(2, r) for r in range(1, 31)]
+    assert all(len(ents) == 1 for *_, ents in view["groups"])  # MSH 4: a physical group per entity
+    per_entity = {t: c for (d, t, _), c in view["counts"].items() if d == 2}
+    assert sorted(per_entity.values()) == sorted(np.bincount(region)[1:].tolist())
+    assert view["nodes"] == base.n_points
+    back = anglesmooth.read(out)
+    tags = asio.node_tags(back)
+    assert np.array_equal(back.points, base.points[tags - 1])  # node tag = 1 + the source's node index
+    assert np.array_equal(back.source.mesh.point_data["T"], tags - 1.0)  # node data follows its node
+    assert sorted(np.unique(back.triangle_region).tolist()) == list(range(1, 31))
+
+
 def test_msh41_keeps_node_data_and_element_data(msh, tmp_path):
     m = anglesmooth.read(msh["bl", "41a"])
     src = m.source.mesh

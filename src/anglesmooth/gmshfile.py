@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["gmsh_data", "gmsh_tags", "install", "int_tags", "take_captured", "write"]
+__all__ = ["first_of_duplicates", "gmsh_data", "gmsh_tags", "install", "int_tags", "take_captured", "write"]
 
 _LOCAL = threading.local()  # per thread: reads in several threads do not mix their captures
 _INSTALLED = False
@@ -138,6 +138,7 @@ def _read_entities_41(f, is_ascii: bool, data_size):
 
 _FLOAT = "%.17g"  # 17 significant digits: every double reads back bit for bit
 _CHUNK = 200_000
+_MAX_RUNS = 1000  # node blocks kept in point order up to this many (or 4 per entity)
 
 
 class _Out:
@@ -197,9 +198,81 @@ def _element_blocks(m, geo: list[np.ndarray]) -> list[tuple[int, int, int, np.nd
         if (g == g[0]).all():
             out.append((c.dim, int(g[0]), b, np.arange(len(g))))
             continue
-        uniq, first = np.unique(g, return_index=True)
-        for t in uniq[np.argsort(first)]:
-            out.append((c.dim, int(t), b, np.flatnonzero(g == t)))
+        out += [(c.dim, int(g[seg[0]]), b, seg) for seg in _segments(g)]
+    return out
+
+
+def _segments(values: np.ndarray) -> list[np.ndarray]:
+    """Indices of each distinct value (one sort, not one pass per value), ascending within a segment."""
+    order = np.argsort(values, kind="stable")
+    v = values[order]
+    return np.split(order, np.flatnonzero(v[1:] != v[:-1]) + 1)
+
+
+def first_of_duplicates(cells: np.ndarray) -> np.ndarray:
+    """Mask keeping the first of cells with the same node set (any order).
+
+    >>> first_of_duplicates(np.array([[0, 1, 2], [1, 2, 3], [2, 0, 1]])).tolist()
+    [True, True, False]
+    """
+    if len(cells) < 2:
+        return np.ones(len(cells), bool)
+    cells = np.asarray(cells, dtype=np.int64)
+    if cells.shape[1] == 3 and cells.max() < 2**21:  # sorted corners packed in one int64: one 1D sort
+        a, b, c = cells[:, 0], cells[:, 1], cells[:, 2]
+        lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
+        key = (lo << 42) | ((a + b + c - lo - hi) << 21) | hi
+        order = np.argsort(key, kind="stable")  # stable: among equal cells the first occurrence leads
+        ks = key[order]
+        same = ks[1:] == ks[:-1]
+    else:
+        s = np.sort(cells, axis=1)
+        order = np.lexsort(s.T[::-1])  # rows in lexicographic order (stable as well)
+        ordered = s[order]
+        same = (ordered[1:] == ordered[:-1]).all(axis=1)
+    keep = np.ones(len(cells), bool)
+    keep[order[1:][same]] = False
+    return keep
+
+
+def _merge_repeats(m, blocks, phys):
+    """MSH 2.2 repeats an element once per physical group: keep the first, put its entity in every group.
+
+    Returns the blocks without the repetitions and {(dim, tag): physical tags of the dropped copies}.
+    """
+    out, extra = [], {}
+    for dim, tag, b, rows in blocks:
+        keep = first_of_duplicates(np.asarray(m.cells[b].data)[rows])
+        if not keep.all():
+            extra.setdefault((dim, tag), set()).update(int(v) for v in np.unique(phys[b][rows[~keep]]) if v != 0)
+            rows = rows[keep]
+        out.append((dim, tag, b, rows))
+    return out, extra
+
+
+def _split_by_physical(blocks, phys, used_tags):
+    """MSH 4 gives physical groups per entity: an entity whose cells have several physical tags is split.
+
+    The cells of the entity's smallest physical tag keep the entity; the others get new entity tags of
+    that dimension.
+    """
+    groups: dict[tuple[int, int], list] = {}
+    for blk in blocks:
+        groups.setdefault((blk[0], blk[1]), []).append(blk)
+    next_tag = {d: t + 1 for d, t in used_tags.items()}
+    out = []
+    for (dim, tag), members in groups.items():
+        values = np.unique(np.concatenate([phys[b][rows] for _, _, b, rows in members]))
+        if values.size <= 1:
+            out += members
+            continue
+        new = {int(values[0]): tag}
+        for v in values[1:].tolist():
+            new[v] = next_tag.get(dim, 1)
+            next_tag[dim] = new[v] + 1
+        for _, _, b, rows in members:
+            p = phys[b][rows]
+            out += [(dim, new[int(p[seg[0]])], b, rows[seg]) for seg in _segments(p)]
     return out
 
 
@@ -218,25 +291,31 @@ def _node_dim_tags(m, blocks, n: int) -> np.ndarray:
     return out
 
 
-def _entities(m, pts, blocks, phys, dim_tags, node_keys, source_table):
-    """{(dim, tag): (box, physical tags, bounding tags)} in the order to write."""
+def _entities(m, pts, fpts, blocks, phys, runs, source_table, extra_phys=None):
+    """{(dim, tag): (box, physical tags, bounding tags)} in the order to write.
+
+    ``runs`` are the node blocks (key, start, count) into ``fpts`` (the nodes in
+    file order); an entity not in the source table gets a box around its
+    classified nodes and its cells' nodes.
+    """
     table: dict[tuple[int, int], tuple] = dict(source_table or {})
     bounding_sets = m.cell_sets.get("gmsh:bounding_entities")
     extra: dict[tuple[int, int], list] = {}
+    node_runs: dict[tuple[int, int], list] = {}
     for dim, tag, b, rows in blocks:
         extra.setdefault((dim, tag), []).append((b, rows))
-    for d, t in node_keys:
-        extra.setdefault((d, t), [])
+    for key, start, cnt in runs:
+        extra.setdefault(key, [])
+        node_runs.setdefault(key, []).append(fpts[start : start + cnt])
     for key in sorted(extra):
         if key in table:
             continue
         dim, tag = key
-        members = [np.asarray(m.cells[b].data)[rows].ravel() for b, rows in extra[key]]
-        members.append(np.flatnonzero((dim_tags[:, 0] == dim) & (dim_tags[:, 1] == tag)))
-        nodes = np.unique(np.concatenate(members)) if members else np.zeros(0, np.int64)
-        xyz = pts[nodes] if nodes.size else np.zeros((1, 3))
+        parts = [pts[np.asarray(m.cells[b].data)[rows].ravel()] for b, rows in extra[key]] + node_runs.get(key, [])
+        xyz = np.concatenate(parts) if any(len(x) for x in parts) else np.zeros((1, 3))
         box = xyz[0] if dim == 0 else np.concatenate([xyz.min(axis=0), xyz.max(axis=0)])
-        ph = sorted({int(v) for b, rows in extra[key] if phys is not None for v in np.unique(phys[b][rows]) if v != 0})
+        ph = {int(v) for b, rows in extra[key] if phys is not None for v in np.unique(phys[b][rows]) if v != 0}
+        ph = sorted(ph | (extra_phys or {}).get(key, set()))
         bounds: tuple = ()
         if bounding_sets is not None and len(bounding_sets) == len(m.cells) and extra[key]:
             bset = bounding_sets[extra[key][0][0]]
@@ -277,15 +356,38 @@ def write(path, m, *, binary: bool, entities=None, node_tags=None) -> None:
     geo = _cell_tags(m, "gmsh:geometrical") or [np.full(len(c), k + 1, np.int64) for k, c in enumerate(m.cells)]
     phys = _cell_tags(m, "gmsh:physical")
     blocks = _element_blocks(m, geo)
+    extra_phys: dict = {}
+    if entities is None and phys is not None:  # not from MSH 4.1: per-element tags to per-entity groups
+        blocks, extra_phys = _merge_repeats(m, blocks, phys)
+        used: dict[int, int] = {}
+        for dim, tag, _, _ in blocks:
+            used[dim] = max(used.get(dim, 0), tag)
+        dt = m.point_data.get("gmsh:dim_tags")
+        if dt is not None and np.asarray(dt).ndim == 2 and len(dt):
+            dt = np.asarray(dt)
+            for d in np.unique(dt[:, 0]).tolist():
+                used[int(d)] = max(used.get(int(d), 0), int(dt[dt[:, 0] == d, 1].max()))
+        blocks = _split_by_physical(blocks, phys, used)
     dim_tags = _node_dim_tags(m, blocks, n)
-    # node blocks: runs of consecutive points on one entity, so that the node order is kept
-    # (the format allows several blocks of one entity; gmsh and meshio read them)
+    # node blocks: runs of consecutive points on one entity, so that the node order is kept (the
+    # format allows several blocks of one entity; gmsh and meshio read them); when the entities'
+    # nodes are interleaved (many runs; meshio reads blocks in a Python loop) they are grouped by
+    # entity instead: the order changes, the node tags stay
+    node_order = None
     change = np.flatnonzero((dim_tags[1:] != dim_tags[:-1]).any(axis=1)) + 1 if n else np.zeros(0, np.int64)
+    if len(change) > max(_MAX_RUNS, 4 * len({(int(d), int(t)) for d, t, _, _ in blocks})):
+        code = dim_tags[:, 0] * (1 << 40) + dim_tags[:, 1]
+        node_order = np.argsort(code, kind="stable")
+        code = code[node_order]
+        change = np.flatnonzero(code[1:] != code[:-1]) + 1
     starts = np.concatenate([[0], change]).astype(np.int64) if n else np.zeros(0, np.int64)
     counts = np.diff(np.concatenate([starts, [n]])).astype(np.int64)
-    block_keys = dim_tags[starts]
-    table = _entities(m, pts, blocks, phys, dim_tags, sorted(set(map(tuple, block_keys.tolist()))), entities)
+    fpts = pts if node_order is None else pts[node_order]  # the nodes in file order
+    block_keys = (dim_tags if node_order is None else dim_tags[node_order])[starts]
+    runs = [(tuple(k), int(s0), int(c0)) for k, s0, c0 in zip(block_keys.tolist(), starts.tolist(), counts.tolist())]
+    table = _entities(m, pts, fpts, blocks, phys, runs, entities, extra_phys)
     tags = _valid_tags(node_tags, n)
+    file_tags = tags if node_order is None else tags[node_order]  # the tag of each node as written
     size_t, c_int = "u8", "i4"
     with open(path, "wb") as fh:
         out = _Out(fh, binary)
@@ -327,13 +429,13 @@ def write(path, m, *, binary: bool, entities=None, node_tags=None) -> None:
             start += cnt
             if binary:
                 fh.write(np.array([dim, etag, 0], np.int32).tobytes() + np.array([cnt], np.uint64).tobytes())
-                fh.write(tags[idx].astype(np.uint64).tobytes())
-                fh.write(np.ascontiguousarray(pts[idx]).tobytes())
+                fh.write(file_tags[idx].astype(np.uint64).tobytes())
+                fh.write(np.ascontiguousarray(fpts[idx]).tobytes())
             else:
                 out.text(f"{dim} {etag} 0 {cnt}\n")
                 if cnt:
-                    out.ints(tags[idx], np.int64, sep="\n")
-                    out.table([pts[idx]], ["d"])
+                    out.ints(file_tags[idx], np.int64, sep="\n")
+                    out.table([fpts[idx]], ["d"])
         out.end("Nodes")
         # $Elements
         total = sum(len(rows) for *_, rows in blocks)
@@ -365,7 +467,8 @@ def write(path, m, *, binary: bool, entities=None, node_tags=None) -> None:
             _write_periodic(fh, m.gmsh_periodic, ".16e", binary)
         for name, data in m.point_data.items():
             if name != "gmsh:dim_tags":
-                _write_data(out, "NodeData", name, np.asarray(data, dtype=np.float64), tags)
+                vals = np.asarray(data, dtype=np.float64)  # in file order: meshio reads values by position
+                _write_data(out, "NodeData", name, vals if node_order is None else vals[node_order], file_tags)
         skip = ("gmsh:physical", "gmsh:geometrical", "cell_tags")
         for name, per_block in m.cell_data.items():
             if name in skip or len(per_block) != len(m.cells):

@@ -19,11 +19,12 @@ from typing import Any
 import numpy as np
 
 from .errors import InvalidMeshError, UnsupportedMeshError
+from .gmshfile import first_of_duplicates
 from .gmshfile import int_tags as _int_tags
 from .mesh import Mesh2D
 from .plane import PlaneFrame, fit_plane
 
-__all__ = ["Source", "as_mesh2d", "first_of_duplicates", "copy_with_points", "node_tags", "out_mesh", "sample", "to_mesh2d", "to_meshio"]
+__all__ = ["Source", "as_mesh2d", "copy_with_points", "node_tags", "out_mesh", "sample", "to_mesh2d", "to_meshio"]
 
 _TRI = ("triangle", "triangle6", "triangle7")
 _QUAD = ("quad", "quad8", "quad9")
@@ -159,32 +160,6 @@ def to_mesh2d(m, src: Source) -> Mesh2D:
         source=src,
         frame=frame,
     )
-
-
-def first_of_duplicates(cells: np.ndarray) -> np.ndarray:
-    """Mask keeping the first of cells with the same node set (any order).
-
-    >>> first_of_duplicates(np.array([[0, 1, 2], [1, 2, 3], [2, 0, 1]])).tolist()
-    [True, True, False]
-    """
-    if len(cells) < 2:
-        return np.ones(len(cells), bool)
-    cells = np.asarray(cells, dtype=np.int64)
-    if cells.shape[1] == 3 and cells.max() < 2**21:  # sorted corners packed in one int64: one 1D sort
-        a, b, c = cells[:, 0], cells[:, 1], cells[:, 2]
-        lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
-        key = (lo << 42) | ((a + b + c - lo - hi) << 21) | hi
-        order = np.argsort(key, kind="stable")  # stable: among equal cells the first occurrence leads
-        ks = key[order]
-        same = ks[1:] == ks[:-1]
-    else:
-        s = np.sort(cells, axis=1)
-        order = np.lexsort(s.T[::-1])  # rows in lexicographic order (stable as well)
-        ordered = s[order]
-        same = (ordered[1:] == ordered[:-1]).all(axis=1)
-    keep = np.ones(len(cells), bool)
-    keep[order[1:][same]] = False
-    return keep
 
 
 def _cell_masks(m) -> dict[str, list[np.ndarray]]:
