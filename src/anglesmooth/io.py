@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import formats, gmshfile
+from . import _guard, _paths, formats, gmshfile
 from .errors import AngleSmoothError, InvalidMeshError, MeshReadError, MeshWriteError, UnsupportedMeshError
 from .mesh import Mesh2D
 from .meshconv import _QUAD, _TRI, as_mesh2d, node_tags, to_meshio  # noqa: F401  (to_meshio: public through io)
@@ -221,7 +221,7 @@ def _read_meshio(p: Path, fmt: str | None, where: str):
     for name in cands:
         try:
             gmshfile.take_captured()
-            with _quiet():
+            with _quiet(), _guard.limits(p, name):
                 m = reader_map[name](str(p))
             got = gmshfile.take_captured() if name.startswith("gmsh") else {}
             return m, name, {"node_tags": got.get("node_tags"), "gmsh_entities": got.get("entities")}
@@ -247,7 +247,8 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
     The original meshio mesh in ``mesh.source`` is written with only x, y of
     its points replaced; it is never modified.  The file appears complete or
     not at all: a temporary file in the target directory is written, synced
-    and renamed.
+    and renamed (a symlink is followed; a device, FIFO or socket is written
+    into, never replaced: see ``anglesmooth._paths``).
 
     Parameters
     ----------
@@ -285,14 +286,6 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
         raise InvalidMeshError(f"points have shape {xy.shape}, expected ({mesh.n_points}, 2)")
     if not np.isfinite(xy).all():
         raise InvalidMeshError(f"node {int(np.flatnonzero(~np.isfinite(xy).all(axis=1))[0])} has a non-finite coordinate")
-    parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir():
-        what = "is not a directory" if parent.exists() else "does not exist"
-        raise MeshWriteError(f"{where}: directory '{parent}' {what}")
-    if p.is_dir():
-        raise MeshWriteError(f"{where}: is a directory")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise MeshWriteError(f"{where}: directory '{parent}' is not writable")
     fmt = output_format(p, file_format)
     src = mesh.source if isinstance(mesh.source, _Source) else None
     _check_binary(fmt, binary, where)
@@ -303,21 +296,9 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
     except Exception as e:
         raise MeshWriteError(f"{where}: {_reason(e)}") from None
     suffix = "".join(p.suffixes[-2:]) if fmt in ("permas", "netgen") else p.suffix
-    try:  # root passes os.access on read-only file systems (and /sys, /proc): creating the file tells
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.tmp", suffix=suffix, dir=parent)
-    except OSError as e:
-        raise MeshWriteError(f"{where}: cannot create a file in '{parent}': {e.strerror or _reason(e)}") from None
-    os.close(fd)
-    try:
-        with _quiet():
-            _write_meshio(tmp, out, fmt, src, binary, final=p)
-        with open(tmp, "rb+") as f:
-            os.fsync(f.fileno())
-        os.chmod(tmp, _mode_for(p))
-        os.replace(tmp, p)
+    try:  # temporary file + rename for a regular file, streamed into a device / FIFO (see _paths)
+        _paths.atomic_write(p, lambda tmp: _write_quiet(tmp, out, fmt, src, binary, final=p), suffix=suffix)
     except BaseException as e:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
         if isinstance(e, AngleSmoothError) or not isinstance(e, (Exception, SystemExit)):
             raise
         if isinstance(e, MemoryError):
@@ -325,13 +306,9 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
         raise MeshWriteError(f"{where}: {_reason(e)}") from None
 
 
-def _mode_for(p: Path) -> int:
-    try:
-        return p.stat().st_mode & 0o7777
-    except OSError:
-        mask = os.umask(0)
-        os.umask(mask)
-        return 0o666 & ~mask
+def _write_quiet(tmp: str, out, fmt: str, src: _Source | None, binary: bool | None, final: Path | None = None) -> None:
+    with _quiet():
+        _write_meshio(tmp, out, fmt, src, binary, final=final)
 
 
 def output_format(path, file_format: str | None = None) -> str:
@@ -388,7 +365,7 @@ def _write_xdmf_hdf(tmp: str, out, final: Path) -> None:
     """
     import meshio
 
-    parent = Path(tmp).parent
+    parent = Path(tmp).parent  # the staged file's directory: the real one when ``final`` is a symlink
     with tempfile.TemporaryDirectory(prefix=f".{final.name}.tmp", dir=parent) as d:
         x = Path(d) / final.name
         meshio.xdmf.write(str(x), out, data_format="HDF")
@@ -423,8 +400,9 @@ def _write_meshio(tmp: str, out, fmt: str, src: _Source | None, binary: bool | N
     if binary is None:
         binary = _default_binary(fmt, src)
     if fmt == "xdmf":
-        # HDF5 data (meshio's default) needs h5py and the final file name; else inline XML
-        if binary is not False and final is not None and _has_h5py():
+        # HDF5 data (meshio's default) needs h5py and a regular file (the .h5 goes beside it); else inline XML
+        regular = final is not None and (final.is_file() or not final.exists())
+        if binary is not False and regular and _has_h5py():
             _write_xdmf_hdf(tmp, out, final)
         else:
             meshio.xdmf.write(tmp, out, data_format="XML")

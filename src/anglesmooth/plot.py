@@ -12,13 +12,12 @@ no display needed) and written atomically.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 
+from . import _paths
 from .errors import AngleSmoothError
 from .quality import cell_min_angles, corner_angles
 from .topology import Topology
@@ -47,23 +46,16 @@ def _figure(width: float, height: float):
 
 
 def _save(fig, path: str | Path) -> None:
-    path = Path(path)
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent or ".")
-    except OSError as exc:
-        raise AngleSmoothError(f"cannot write plot '{path}': {exc.strerror or exc}") from None
-    try:
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        with os.fdopen(fd, "wb") as fh:
+    """Write the PNG like every output (atomically, or into a device / FIFO; see ``_paths``)."""
+
+    def write(tmp):
+        with open(tmp, "wb") as fh:
             fig.savefig(fh, format="png", dpi=110)
-        os.replace(tmp, path)
+
+    try:
+        _paths.atomic_write(path, write, suffix=".png", what="cannot write plot")
     except OSError as exc:
         raise AngleSmoothError(f"cannot write plot '{path}': {exc.strerror or exc}") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 def _draw_mesh(ax, topo: Topology, points: np.ndarray, values: np.ndarray, norm, cmap):

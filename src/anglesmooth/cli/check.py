@@ -14,9 +14,9 @@ from ..quality import summarize
 from ..topology import build_cell_topology
 from . import formats
 from .errors import EXIT_GATE, EXIT_INPUT, classify, error, handle_errors
-from .meshfiles import STDIO, check_writable, display, read_mesh
+from .meshfiles import STDIO, display, plan_outputs, read_mesh
 from .options import debug_option, gate_options, input_format_option, json_option, quiet_option
-from .outputs import emit_json, gate_thresholds, make_console, plain
+from .outputs import emit_json, gate_thresholds, make_console, note_stale, plain
 
 
 @click.command("check")
@@ -38,10 +38,11 @@ def check_cmd(inputs, input_format, json_path, report_format, junit_path, quiet,
     and --max-degenerate N relax it).
     """
     console = make_console(quiet)
-    thresholds, exit_zero = gate_thresholds(gate_opts, safe=True)
     formats.check_junit_path(junit_path)
-    if junit_path is not None:
-        check_writable(junit_path, "cannot write JUnit XML")
+    read = [*(("INPUT", p) for p in inputs), ("--gate-file", gate_opts.get("gate_file"))]
+    outs = plan_outputs({"--json": json_path, "--junit-xml": junit_path}, read)
+    note_stale(console, outs)
+    thresholds, exit_zero = gate_thresholds(gate_opts, safe=True)
     entries = [check_one(path, input_format, thresholds, debug)[0] for path in inputs]
     if len(entries) == 1 and entries[0]["report"] is not None:
         console.print(report.check_table(entries[0]["report"], title=display(inputs[0])))
@@ -51,14 +52,11 @@ def check_cmd(inputs, input_format, json_path, report_format, junit_path, quiet,
     formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=json_path == STDIO)
     errors = any(e["error"] for e in entries)
     passed = not errors and all(e["passed"] for e in entries)
-    staged = formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth check")) if junit_path else None
-    try:
+    with outs:
         emit_json(json_path, report.check_json(entries, passed))
-    except BaseException:
-        if staged is not None:
-            staged.unlink(missing_ok=True)
-        raise
-    formats.commit(staged, junit_path)
+        if junit_path:
+            formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth check"))
+        outs.commit()
     if errors:
         raise click.exceptions.Exit(EXIT_INPUT)
     if not passed and not exit_zero:

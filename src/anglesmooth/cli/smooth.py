@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-
 import click
 
 from .. import report
@@ -16,12 +14,12 @@ from ..smoothers._fast import kernel_mode
 from ..topology import build_topology
 from . import formats
 from .errors import EXIT_GATE, handle_errors
-from .meshfiles import (STDIO, check_output, check_paths, check_writable, display, extra_fixed, fix_node_indices,
-                        read_fix_nodes, read_mesh, write_mesh)
+from .meshfiles import (STDIO, check_output, check_paths, display, extra_fixed, fix_node_indices, read_fix_nodes,
+                        read_mesh, write_mesh)
 from .options import (binary_option, debug_option, gate_options, input_format_option, json_option,
                       no_guard_option, node_numbering_option, order_option, output_format_option, quiet_option)
-from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, plain, progress_bar,
-                      stage_json, warn_invalid)
+from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, note_stale, plain,
+                      progress_bar, warn_invalid)
 
 
 @click.command("smooth")
@@ -68,12 +66,12 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
     OUTPUT of another format (a previous result, e.g. out.vtu from in.msh) is replaced.
     """
     console = make_console(quiet)
-    output = check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
-                         output_format=output_format, json_path=json_path)
-    thresholds, exit_zero = gate_thresholds(gate_opts)
     formats.check_junit_path(junit_path)
-    if junit_path is not None:
-        check_writable(junit_path, "cannot write JUnit XML")
+    output, outs = check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
+                               output_format=output_format, json_path=json_path, plot=plot, fix_nodes=fix_nodes,
+                               gate_file=gate_opts.get("gate_file"), junit_path=junit_path)
+    note_stale(console, outs)
+    thresholds, exit_zero = gate_thresholds(gate_opts)
     kernel_mode()  # a bad ANGLESMOOTH_KERNEL is a usage error before any work
     if plot:
         from ..plot import require_matplotlib
@@ -81,40 +79,36 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
         require_matplotlib()
     user_nodes = read_fix_nodes(fix_nodes, node_numbering) if fix_nodes else None
     name, out_name = display(input), "<stdout>" if output == STDIO else output
-    mesh = read_mesh(input, input_format)
-    check_output(mesh, output, output_format, binary)  # the output format can hold the mesh: fail before smoothing
-    user_nodes = fix_node_indices(mesh, user_nodes, node_numbering) if user_nodes is not None else None
-    topo = build_topology(mesh, extra_fixed(mesh, fix_group, user_nodes))
-    before = summarize(mesh.points, topo)
-    warn_invalid(console, name, before)
-    note_fast(console, topo, passes)
-    with progress_bar(console, passes, mesh.n_cells, progress, compiled=fast_active(topo)) as callback:
-        result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
-                            callback=callback)
-    after = summarize(result.points, topo)
-    gates = evaluate(after, thresholds, result.points, topo)
-    document = report.smooth_json(
-        input=name, output=out_name, method=method, guard=not no_guard, order=order, passes=result.passes,
-        passes_requested=passes, tol=tol, displacements=result.displacements, rejected=result.rejected,
-        before=before, after=after, elapsed_s=result.elapsed_s, gates=gates, passed=all(g.passed for g in gates))
-    # the JSON file is staged first and renamed after the mesh is written: an error in
-    # either leaves neither behind
-    staged = stage_json(json_path, document) if json_path not in (None, STDIO) else None
-    outcomes = [formats.Outcome(out_name, gates)]
-    junit = None
-    try:
-        junit = formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth smooth")) if junit_path else None
+    # every output is staged and committed together at the end: an error or a signal
+    # before that leaves none of them (see README "Rules")
+    with outs:
+        mesh = read_mesh(input, input_format)
+        check_output(mesh, output, output_format, binary)  # the output format can hold the mesh: fail before smoothing
+        user_nodes = fix_node_indices(mesh, user_nodes, node_numbering) if user_nodes is not None else None
+        topo = build_topology(mesh, extra_fixed(mesh, fix_group, user_nodes))
+        before = summarize(mesh.points, topo)
+        warn_invalid(console, name, before)
+        note_fast(console, topo, passes)
+        with progress_bar(console, passes, mesh.n_cells, progress, compiled=fast_active(topo)) as callback:
+            result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
+                                callback=callback)
+        after = summarize(result.points, topo)
+        gates = evaluate(after, thresholds, result.points, topo)
+        document = report.smooth_json(
+            input=name, output=out_name, method=method, guard=not no_guard, order=order, passes=result.passes,
+            passes_requested=passes, tol=tol, displacements=result.displacements, rejected=result.rejected,
+            before=before, after=after, elapsed_s=result.elapsed_s, gates=gates,
+            passed=all(g.passed for g in gates))
+        outcomes = [formats.Outcome(out_name, gates)]
         write_mesh(mesh, output, result.points, output_format, binary)
-    except BaseException:
-        for tmp in (staged, junit):
-            if tmp is not None:
-                tmp.unlink(missing_ok=True)
-        raise
-    if staged is not None:
-        os.replace(staged, json_path)
-    elif json_path == STDIO:
         emit_json(json_path, document)
-    formats.commit(junit, junit_path)
+        if junit_path:
+            formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth smooth"))
+        if plot:
+            from ..plot import plot_smooth
+
+            plot_smooth(plot, topo, mesh.points, result.points, title=f"{name}: {method}, {result.passes} passes")
+        outs.commit()
     run = {"passes performed": f"{result.passes} / {passes}", "rejected moves": result.rejected,
            "last displacement": f"{result.displacements[-1] if result.displacements else 0:.3g} x mean edge",
            "time": f"{result.elapsed_s:.3f} s"}
@@ -124,9 +118,5 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
         formats.report(report_format, outcomes, lambda text: plain(console, text),
                        data_on_stdout=STDIO in (output, json_path))
     passed = all(g.passed for g in gates)
-    if plot:
-        from ..plot import plot_smooth
-
-        plot_smooth(plot, topo, mesh.points, result.points, title=f"{name}: {method}, {result.passes} passes")
     if not passed and not exit_zero:
         raise click.exceptions.Exit(EXIT_GATE)
