@@ -243,7 +243,7 @@ def corpus() -> list[Case]:
     cases += [
         Case("unknown-ext", "unknown extension (.foo)", raw("in.foo", b"hello"), 3, "unknown file extension '.foo'"),
         Case("no-ext", "no extension", raw("in", b"hello"), 3, "unknown file extension '(none)'"),
-        Case("bad-input-format", "--input-format nonsense", raw("in.vtu", b"hello"), 3, "unknown format 'nonsense'",
+        Case("bad-input-format", "--input-format nonsense", raw("in.vtu", b"hello"), 2, "unknown format 'nonsense'",
              args=("--input-format", "nonsense")),
         Case("missing-input", "input file does not exist", lambda d: d / "missing.vtu", 3, "no such file"),
         Case("input-is-dir", "input is a directory", lambda d: (d / "dir.vtu").mkdir() or d / "dir.vtu", 3,
@@ -268,11 +268,11 @@ def corpus() -> list[Case]:
         Case("polygon5", "a pentagon (polygon with 5 sides)",
              vtu([[0, 0, 0], [1, 0, 0], [1.5, 1, 0], [0.5, 1.5, 0], [-0.5, 1, 0]], [("polygon", [[0, 1, 2, 3, 4]])]), 3,
              "unsupported cell type 'polygon'"),
-        Case("non-planar-tilted", "surface mesh on a tilted plane", non_planar(lambda p: 0.3 * p[:, 0]), 3,
-             "mesh is not planar"),
         Case("non-planar-bump", "surface mesh with one node lifted by 1e-3", non_planar(
             lambda p: np.where(np.arange(len(p)) == 12, 1e-3, 0.0)), 3, "mesh is not planar"),
         # accepted inputs
+        Case("tilted-plane", "surface mesh on a tilted plane (smoothed in its own plane)",
+             non_planar(lambda p: 0.3 * p[:, 0]), 0),
         Case("duplicate-unused", "a duplicate node that no cell uses (allowed: unused, fixed)", duplicate_unused(), 0),
         Case("duplicate-crack", "a duplicated node splitting the mesh along a slit (allowed: both sides fixed)",
              duplicate_crack(), 0),
@@ -589,7 +589,7 @@ def test_io_write_parent_is_a_file(tmp_path):
 def test_io_read_reports_the_reader_reason(tmp_path):
     """meshio.read hides its readers' errors behind sys.exit(1); io.read keeps them."""
     path = truncated("xdmf", 0.5)(tmp_path)
-    with pytest.raises(MeshReadError, match=r"not a valid xdmf file \(ParseError: no element found"):
+    with pytest.raises(MeshReadError, match=r"not a valid xdmf file \(ParseError: "):  # XDMF with HDF5 data: one line
         asio.read(path)
     path = truncated("vtk", 0.5)(tmp_path)  # refused before meshio allocates (see _guard)
     with pytest.raises(MeshReadError, match=r"not a valid vtk file \(SizeLimitError: the file declares \d+ values"):

@@ -161,7 +161,7 @@ def test_fixed_nodes_bit_identical(meshes, tmp_path):
 
 
 def _fixed_count(*args) -> int:
-    result = run(*args, "--json", "-", "-q")
+    result = run(*args, "--json", "-", "-q", "--force")  # --force: the same OUTPUT (of the input's format) each time
     assert result.exit_code == 0, result.stderr
     return json.loads(result.stdout)["before"]["fixed_nodes"]
 

@@ -62,6 +62,10 @@ class SmoothResult:
     def points(self) -> np.ndarray:
         return self.mesh.points
 
+    def to_meshio(self):
+        """The smoothed mesh as a ``meshio.Mesh``, everything of the input kept (see :func:`anglesmooth.io.to_meshio`)."""
+        return self.mesh.to_meshio()
+
 
 def _max_move(old: np.ndarray, new: np.ndarray) -> float:
     """Largest node displacement; sqrt is monotonic, so one sqrt of the largest square (same value)."""
@@ -89,7 +93,7 @@ def smooth(
 
     Parameters
     ----------
-    mesh : Mesh2D
+    mesh : Mesh2D or meshio.Mesh
     method : str
         A name in :data:`anglesmooth.SMOOTHERS`.
     passes : int
@@ -113,6 +117,10 @@ def smooth(
     **options
         Passed to the method's step function.
     """
+    if not isinstance(mesh, Mesh2D):  # a meshio.Mesh
+        from .io import as_mesh2d
+
+        mesh = as_mesh2d(mesh)
     smoother = get_smoother(method)
     if passes < 0:
         raise ValueError("passes must be >= 0")

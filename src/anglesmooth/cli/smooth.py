@@ -14,9 +14,10 @@ from ..smoothers._fast import kernel_mode
 from ..topology import build_topology
 from . import formats
 from .errors import EXIT_GATE, handle_errors
-from .meshfiles import STDIO, check_paths, display, extra_fixed, read_fix_nodes, read_mesh, write_mesh
-from .options import (debug_option, gate_options, input_format_option, json_option, no_guard_option, order_option,
-                      quiet_option)
+from .meshfiles import (STDIO, check_output, check_paths, display, extra_fixed, fix_node_indices, read_fix_nodes,
+                        read_mesh, write_mesh)
+from .options import (binary_option, debug_option, gate_options, input_format_option, json_option,
+                      no_guard_option, node_numbering_option, order_option, output_format_option, quiet_option)
 from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, note_stale, plain,
                       progress_bar, warn_invalid)
 
@@ -31,13 +32,19 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
               help="Stop once a pass moves no node by more than T x the mean edge length.")
 @no_guard_option
 @order_option
-@click.option("--fix-group", multiple=True, metavar="NAME", help="Also fix the nodes of this named group (repeatable).")
+@click.option("--fix-group", multiple=True, metavar="GROUP",
+              help="Also fix the nodes of this group: a name, or a gmsh physical number (11) or dim:number (2:11) "
+                   "(repeatable).")
 @click.option("--fix-nodes", type=click.Path(exists=True, dir_okay=False), metavar="FILE",
-              help="Also fix these nodes: 0-based indices, whitespace-separated, '#' comments.")
-@click.option("--force", is_flag=True, help="Allow OUTPUT to be the input file.")
+              help="Also fix these nodes: whitespace-separated numbers, '#' comments; 0-based indices unless "
+                   "--node-numbering gmsh.")
+@node_numbering_option
+@click.option("--force", is_flag=True,
+              help="Allow OUTPUT to be the input file, or an existing file of the input's format (see above).")
 @click.option("--in-place", is_flag=True, help="Overwrite INPUT (give no OUTPUT).")
 @input_format_option
-@click.option("--output-format", metavar="FORMAT", help="meshio format of OUTPUT (needed for '-').")
+@output_format_option
+@binary_option
 @gate_options
 @json_option
 @formats.format_option
@@ -49,10 +56,15 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
 @quiet_option
 @debug_option
 @handle_errors
-def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, fix_nodes, force, in_place,
-               input_format, output_format, json_path, report_format, junit_path, plot, progress, quiet, debug,
-               **gate_opts) -> None:
-    """Smooth INPUT and write OUTPUT ('-' for stdin/stdout); gates apply to the result, after writing it."""
+def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, fix_nodes, node_numbering, force,
+               in_place, input_format, output_format, binary, json_path, report_format, junit_path, plot, progress,
+               quiet, debug, **gate_opts) -> None:
+    """Smooth INPUT and write OUTPUT ('-' for stdin/stdout); gates apply to the result, after writing it.
+
+    An existing OUTPUT of the input's format (by its extension: 'anglesmooth a.msh b.msh' where b.msh exists,
+    as a shell glob gives) is taken for another input and not overwritten without --force (exit 2); an existing
+    OUTPUT of another format (a previous result, e.g. out.vtu from in.msh) is replaced.
+    """
     console = make_console(quiet)
     formats.check_junit_path(junit_path)
     output, outs = check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
@@ -65,12 +77,14 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
         from ..plot import require_matplotlib
 
         require_matplotlib()
-    user_nodes = read_fix_nodes(fix_nodes) if fix_nodes else None
+    user_nodes = read_fix_nodes(fix_nodes, node_numbering) if fix_nodes else None
     name, out_name = display(input), "<stdout>" if output == STDIO else output
     # every output is staged and committed together at the end: an error or a signal
     # before that leaves none of them (see README "Rules")
     with outs:
         mesh = read_mesh(input, input_format)
+        check_output(mesh, output, output_format, binary)  # the output format can hold the mesh: fail before smoothing
+        user_nodes = fix_node_indices(mesh, user_nodes, node_numbering) if user_nodes is not None else None
         topo = build_topology(mesh, extra_fixed(mesh, fix_group, user_nodes))
         before = summarize(mesh.points, topo)
         warn_invalid(console, name, before)
@@ -86,7 +100,7 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
             before=before, after=after, elapsed_s=result.elapsed_s, gates=gates,
             passed=all(g.passed for g in gates))
         outcomes = [formats.Outcome(out_name, gates)]
-        write_mesh(mesh, output, result.points, output_format)
+        write_mesh(mesh, output, result.points, output_format, binary)
         emit_json(json_path, document)
         if junit_path:
             formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth smooth"))
