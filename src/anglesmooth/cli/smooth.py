@@ -12,13 +12,13 @@ from ..gates import evaluate
 from ..quality import summarize
 from ..smoothers import SMOOTHERS
 from ..smoothers._fast import active as fast_active
-from ..smoothers._fast import kernel_mode
+from ..smoothers._fast import compile_estimate, kernel_mode
 from ..topology import build_topology
 from .errors import EXIT_GATE, handle_errors
 from .meshfiles import STDIO, check_paths, display, extra_fixed, read_fix_nodes, read_mesh, write_mesh
 from .options import (debug_option, gate_options, input_format_option, json_option, no_guard_option, order_option,
                       quiet_option)
-from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, progress_bar,
+from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, plain, progress_bar,
                       report_gates, stage_json, warn_invalid)
 
 
@@ -67,7 +67,11 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
     before = summarize(mesh.points, topo)
     warn_invalid(console, name, before)
     note_fast(console, topo, passes)
-    with progress_bar(console, passes, mesh.n_cells, progress, compiled=fast_active(topo)) as callback:
+    compiled = bool(passes) and fast_active(topo)
+    compiling = compile_estimate(method) if compiled else 0.0
+    if compiling:  # the first run ever (or after an upgrade): say so, whatever stderr is
+        plain(console, f"compiling kernels once, about {max(1, round(compiling))} s")
+    with progress_bar(console, passes, mesh.n_cells, progress, compiled=compiled, compiling=bool(compiling)) as callback:
         result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
                             callback=callback)
     after = summarize(result.points, topo)
@@ -75,7 +79,8 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
     document = report.smooth_json(
         input=name, output=out_name, method=method, guard=not no_guard, order=order, passes=result.passes,
         passes_requested=passes, tol=tol, displacements=result.displacements, rejected=result.rejected,
-        before=before, after=after, elapsed_s=result.elapsed_s, gates=gates, passed=all(g.passed for g in gates))
+        before=before, after=after, elapsed_s=result.elapsed_s, gates=gates, passed=all(g.passed for g in gates),
+        compile_s=result.compile_s)
     # the JSON file is staged first and renamed after the mesh is written: an error in
     # either leaves neither behind
     staged = stage_json(json_path, document) if json_path not in (None, STDIO) else None
@@ -92,6 +97,8 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
     run = {"passes performed": f"{result.passes} / {passes}", "rejected moves": result.rejected,
            "last displacement": f"{result.displacements[-1] if result.displacements else 0:.3g} x mean edge",
            "time": f"{result.elapsed_s:.3f} s"}
+    if result.compile_s:
+        run["kernel compile / load"] = f"{result.compile_s:.3f} s"
     guard = "guarded" if not no_guard else "no guard"
     console.print(report.smooth_table(before, after, run, title=f"{name} -> {out_name}: {method}, {guard}, {order}"))
     passed = report_gates(console, out_name, gates)
