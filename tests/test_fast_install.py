@@ -233,3 +233,33 @@ def test_threaded_kernels_give_the_one_thread_numbers(method, monkeypatch):
     finally:
         _fast.set_threads(None)
     np.testing.assert_array_equal(one, three)
+
+
+def test_cli_threads_option_caps_the_kernel_threads(monkeypatch, tmp_path):
+    import meshio
+    from cli_runner import cli_runner
+
+    from anglesmooth.cli import cli
+
+    src = tmp_path / "in.vtu"
+    m = gen.structured_triangles(6, 6)
+    meshio.write(src, meshio.Mesh(np.c_[m.points, np.zeros(len(m.points))], [("triangle", m.triangles)]))
+    seen = []
+    real = _fast.threads
+    monkeypatch.setattr(_fast, "threads", lambda n=None: seen.append(real(n)) or seen[-1])
+    monkeypatch.setattr(_fast, "_cores", lambda: 4)
+    monkeypatch.setattr(_fast, "MIN_CHUNK", 1)
+    monkeypatch.setenv("ANGLESMOOTH_KERNEL", "numba")
+    monkeypatch.delenv("NUMBA_NUM_THREADS", raising=False)
+    try:
+        r = cli_runner().invoke(cli, [str(src), str(tmp_path / "a.vtu"), "--threads", "2", "-m", "laplacian"])
+        assert r.exit_code == 0, r.output
+        assert seen and max(seen) == 2
+        seen.clear()
+        r = cli_runner().invoke(cli, [str(src), str(tmp_path / "b.vtu"), "-m", "laplacian"])
+        assert r.exit_code == 0, r.output
+        assert max(seen) == 4  # no option: no cap left over from the run before
+        r = cli_runner().invoke(cli, [str(src), str(tmp_path / "c.vtu"), "--threads", "0"])
+        assert r.exit_code == 2 and not (tmp_path / "c.vtu").exists()
+    finally:
+        _fast.set_threads(None)

@@ -12,7 +12,7 @@ from ..gates import evaluate
 from ..quality import summarize
 from ..smoothers import SMOOTHERS
 from ..smoothers._fast import active as fast_active
-from ..smoothers._fast import compile_estimate, kernel_mode
+from ..smoothers._fast import compile_estimate, kernel_mode, set_threads
 from ..topology import build_topology
 from .errors import EXIT_GATE, handle_errors
 from .meshfiles import STDIO, check_paths, display, extra_fixed, read_fix_nodes, read_mesh, write_mesh
@@ -45,17 +45,21 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
               help="Write a PNG: mesh before/after coloured by minimum angle, angle histograms.")
 @click.option("--progress/--no-progress", default=None,
               help=f"Progress bar over passes [default: on a terminal with > {PROGRESS_MIN_CELLS} cells].")
+@click.option("--threads", type=click.IntRange(min=1), metavar="N",
+              help="At most N threads for the compiled kernels [default: the cores this process may use; "
+                   "NUMBA_NUM_THREADS caps it too].")
 @quiet_option
 @debug_option
 @handle_errors
 def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, fix_nodes, force, in_place,
-               input_format, output_format, json_path, plot, progress, quiet, debug, **gate_opts) -> None:
+               input_format, output_format, json_path, plot, progress, threads, quiet, debug, **gate_opts) -> None:
     """Smooth INPUT and write OUTPUT ('-' for stdin/stdout); gates apply to the result, after writing it."""
     console = make_console(quiet)
     output = check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
                          output_format=output_format, json_path=json_path)
     thresholds, exit_zero = gate_thresholds(gate_opts)
     kernel_mode()  # a bad ANGLESMOOTH_KERNEL is a usage error before any work
+    set_threads(threads)
     if plot:
         from ..plot import require_matplotlib
 
