@@ -196,8 +196,8 @@ def test_threads_follow_the_cores_the_settings_and_the_work(monkeypatch):
 
 
 def test_every_kernel_parameter_is_classified_for_the_threaded_split():
-    """A kernel parameter that is neither per-node nor shared would make the split wrong (it then runs
-    whole, on one thread): a new kernel must name its parameters in ``_fast.PER_NODE``/``SHARED``."""
+    """A kernel parameter that is not known as per-node, shared or scalar makes its calls run whole,
+    on one thread: a new kernel must name its parameters in ``_fast.PER_NODE``/``SHARED``/``SCALARS``."""
     import inspect
 
     k = _fast._k()
@@ -205,7 +205,8 @@ def test_every_kernel_parameter_is_classified_for_the_threaded_split():
     assert {fn.__name__ for fn in kernels} >= set(_fast.COMPILE_S)
     for fn in kernels:
         params = set(inspect.signature(fn.py_func).parameters)
-        assert params <= set(_fast.PER_NODE) | _fast.SHARED, (fn.__name__, params - set(_fast.PER_NODE) - _fast.SHARED)
+        known = set(_fast.PER_NODE) | _fast.SHARED | _fast.SCALARS
+        assert params <= known, (fn.__name__, params - known)
         assert _fast._split_spec(fn) is not None
 
 
@@ -233,6 +234,22 @@ def test_threaded_kernels_give_the_one_thread_numbers(method, monkeypatch):
     finally:
         _fast.set_threads(None)
     np.testing.assert_array_equal(one, three)
+
+
+def test_a_scalar_parameter_given_one_value_per_node_is_split_with_the_nodes():
+    k = _fast._k()
+    nodes = np.arange(10, dtype=np.int64)
+    names = _fast._params(k.angle_choose)
+    args = [np.zeros(3)] * len(names)
+    args[names.index("nodes")] = nodes
+    args[names.index("good")] = 0.5
+    per_node, _, _ = _fast._split_spec(k.angle_choose, args)
+    assert (names.index("good"), 0) not in per_node
+    args[names.index("good")] = np.full(10, 0.5)
+    per_node, _, _ = _fast._split_spec(k.angle_choose, args)
+    assert (names.index("good"), 0) in per_node
+    args[names.index("good")] = np.full(7, 0.5)  # neither one value nor one per node: not split
+    assert _fast._split_spec(k.angle_choose, args) is None
 
 
 def test_cli_threads_option_caps_the_kernel_threads(monkeypatch, tmp_path):

@@ -110,10 +110,13 @@ METHOD_KERNELS = {
 }
 
 # the kernels' array parameters that hold one row per node of the call, and the axis of that row;
-# every other parameter is shared by all nodes (tests/test_fast_install.py checks each kernel's)
+# SHARED arrays are indexed by mesh-wide ids and go whole to every chunk; any other parameter is a
+# scalar, or, when it is an array with one row per node, split along axis 0 too; a call with an
+# argument that is none of these runs whole on one thread (tests/test_fast_install.py checks that
+# every kernel's parameters are known)
 PER_NODE = {"nodes": 0, "x": 0, "X": 1, "scale": 0}
-SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "rp", "nbr", "tp", "tv", "qp", "qv", "directions",
-          "lengths", "good", "iterations", "radius", "band"}
+SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "rp", "nbr", "tp", "tv", "qp", "qv", "directions"}
+SCALARS = {"lengths", "good", "iterations", "radius", "band"}
 
 _ENV = "ANGLESMOOTH_KERNEL"
 _kernels = None  # the compiled module, imported on first use
@@ -240,19 +243,35 @@ def _prepare(fn, args) -> None:
         _stats["loaded" if loaded else "compiled"].append(fn.__name__)
 
 
-def _split_spec(fn):
-    """((argument index, axis), ...) of ``fn``'s per-node arguments and the axis of its outputs'
-    nodes, or None when a parameter is neither per-node nor shared (the call then runs whole)."""
-    hit = _split_specs.get(fn)
-    if hit is None:
-        names = list(inspect.signature(fn.py_func).parameters)
-        if "nodes" in names and all(p in PER_NODE or p in SHARED for p in names):
-            hit = (tuple((i, PER_NODE[p]) for i, p in enumerate(names) if p in PER_NODE), 1 if "X" in names else 0,
-                   names.index("nodes"))
-        else:
-            hit = False
-        _split_specs[fn] = hit
-    return hit or None
+def _params(fn) -> tuple:
+    names = _split_specs.get(fn)
+    if names is None:
+        names = _split_specs[fn] = tuple(inspect.signature(fn.py_func).parameters)
+    return names
+
+
+def _split_spec(fn, args=None):
+    """((argument index, axis), ...) of ``fn``'s per-node arguments, the axis of its outputs' nodes and
+    the index of ``nodes``; None when the call cannot be split (it then runs whole).  With ``args``,
+    a scalar-named parameter given an array with one row per node counts as per-node."""
+    names = _params(fn)
+    if "nodes" not in names or len(names) != (len(args) if args is not None else len(names)):
+        return None
+    at = names.index("nodes")
+    n = args[at].shape[0] if args is not None else None
+    per_node = []
+    for i, p in enumerate(names):
+        if p in PER_NODE:
+            per_node.append((i, PER_NODE[p]))
+        elif p in SHARED:
+            continue
+        elif p not in SCALARS:
+            return None
+        elif args is not None and isinstance(args[i], np.ndarray) and args[i].ndim:
+            if args[i].shape[0] != n:
+                return None
+            per_node.append((i, 0))
+    return tuple(per_node), 1 if "X" in names else 0, at
 
 
 def _get_pool(n: int) -> ThreadPoolExecutor:
@@ -300,12 +319,11 @@ def _call(fn, args):
     if not _is_dispatcher(fn):
         return fn(*args)
     _prepare(fn, args)
-    spec = _split_spec(fn)
+    names = _params(fn)
+    n = args[names.index("nodes")].shape[0] if "nodes" in names and len(names) == len(args) else 0
+    n_threads = threads(n) if n else 1
+    spec = _split_spec(fn, args) if n_threads > 1 else None
     if spec is None:
-        return fn(*args)
-    n = args[spec[2]].shape[0]
-    n_threads = threads(n)
-    if n_threads == 1:
         return fn(*args)
     return _threaded(fn, args, spec, n, n_threads)
 
