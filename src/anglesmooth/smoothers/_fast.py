@@ -24,7 +24,7 @@ Threads
     blocks).  Because the chunks are taken in turn, a core that is busy with
     other work simply takes fewer of them: on a loaded machine the threads
     never wait for each other the way numba's ``parallel=True`` layer did
-    (measured 3x slower than one thread with both cores loaded), and the
+    (issue 17: 3x slower than one thread with both cores loaded), and the
     serial compile is about five times cheaper.
 
 Same numbers
@@ -276,10 +276,13 @@ def _split_spec(fn, args=None):
 
 def _get_pool(n: int) -> ThreadPoolExecutor:
     global _pool, _pool_size
-    if _pool is None or _pool_size < n:
-        _pool = ThreadPoolExecutor(max_workers=n, thread_name_prefix="anglesmooth-kernel")
-        _pool_size = n
-    return _pool
+    with _COMPILE_LOCK:
+        if _pool is None or _pool_size < n:
+            if _pool is not None:
+                _pool.shutdown(wait=False)  # its threads finish what they hold, then exit
+            _pool = ThreadPoolExecutor(max_workers=n, thread_name_prefix="anglesmooth-kernel")
+            _pool_size = n
+        return _pool
 
 
 def _chunk(a: np.ndarray, axis: int, lo: int, hi: int) -> np.ndarray:
@@ -294,13 +297,18 @@ def _threaded(fn, args, spec, n: int, n_threads: int):
     bounds = np.linspace(0, n, n_chunks + 1).astype(np.int64)
     results = [None] * n_chunks
     counter = itertools.count()
+    stop = []  # set when a thread fails or is interrupted: the others take no further chunk
 
     def work():
-        while (i := next(counter)) < n_chunks:
-            sub = list(args)
-            for j, axis in per_node:
-                sub[j] = _chunk(args[j], axis, bounds[i], bounds[i + 1])
-            results[i] = fn(*sub)
+        try:
+            while not stop and (i := next(counter)) < n_chunks:
+                sub = list(args)
+                for j, axis in per_node:
+                    sub[j] = _chunk(args[j], axis, bounds[i], bounds[i + 1])
+                results[i] = fn(*sub)
+        except BaseException:
+            stop.append(True)
+            raise
 
     helpers = [_get_pool(n_threads - 1).submit(work) for _ in range(n_threads - 1)]
     try:
