@@ -283,3 +283,19 @@ def test_cli_threads_option_caps_the_kernel_threads(monkeypatch, tmp_path):
         assert r.exit_code == 2 and not (tmp_path / "c.vtu").exists()
     finally:
         _fast.set_threads(None)
+
+
+def test_warm_up_compiles_what_a_smoothing_run_calls(tmp_path):
+    """warm_up's tiny mesh gives the kernels the signature of a real run (writeable points: the
+    read-only mesh points compiled a second variant before), so the run compiles nothing more."""
+    code = (
+        "import json\n"
+        "from anglesmooth import generate as gen, smooth\n"
+        "from anglesmooth.smoothers import _fast\n"
+        "_fast.warm_up(['ring_mean', 'score'])\n"
+        "before = list(_fast.jit_stats()['compiled'])\n"
+        "smooth(gen.random_delaunay(3000, 3), 'laplacian', passes=2)\n"
+        "print(json.dumps([before, _fast.jit_stats()['compiled']]))\n"
+    )
+    before, after = json.loads(_py(code, _env(tmp_path, ANGLESMOOTH_KERNEL="numba"), tmp_path).stdout)
+    assert sorted(before) == ["ring_mean", "score"] and after == before

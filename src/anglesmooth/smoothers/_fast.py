@@ -469,8 +469,13 @@ class FastGeometry:
         )
 
 
-def warm_up() -> None:
-    """Compile (or load from numba's cache) every kernel on a tiny mesh."""
+def warm_up(kernels=None) -> None:
+    """Compile (or load from the cache) the ``kernels`` named (default: every kernel) on a tiny mesh.
+
+    The tiny mesh's tables have the types of any mesh's, so the compiled code is what a large mesh
+    runs (a different signature would only compile again).
+    """
+    want = set(COMPILE_S if kernels is None else kernels)
     from ..generate import structured_quads, structured_triangles
     from ..mesh import Mesh2D
     from ..topology import build_topology
@@ -481,11 +486,19 @@ def warm_up() -> None:
         np.concatenate([t.points, q.points + [5.0, 0.0]]), triangles=t.triangles, quads=q.quads + n
     )
     topo = build_topology(m)
+    pts = np.array(m.points)  # writeable, as the points a smoothing run passes (another signature otherwise)
     for blk in topo.blocks():
-        g = FastGeometry(m.points, topo, blk)
-        x = m.points[topo.free_nodes[blk.nodes]]
-        g.score(x)
-        g.compass(x, np.ones(g.n), 1, 0.25, 0.8, np.eye(2)), g.compass(x, np.ones(g.n), 1, 0.25, None, np.eye(2))
-        angle_target(m.points, topo, blk), laplacian_target(m.points, topo, blk), local_scale(m.points, topo, blk)
-        angle_choose(m.points, topo, blk, 0.5)
+        g = FastGeometry(pts, topo, blk)
+        x = pts[topo.free_nodes[blk.nodes]]
+        if "score" in want:
+            g.score(x)
+        if "compass" in want:
+            g.compass(x, np.ones(g.n), 1, 0.25, 0.8, np.eye(2)), g.compass(x, np.ones(g.n), 1, 0.25, None, np.eye(2))
+        if "angle_target" in want:
+            angle_target(pts, topo, blk)
+        if "ring_mean" in want:
+            laplacian_target(pts, topo, blk), local_scale(pts, topo, blk)
+        if "angle_choose" in want:
+            angle_choose(pts, topo, blk, 0.5)
+
 
