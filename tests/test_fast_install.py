@@ -251,6 +251,9 @@ def test_a_scalar_parameter_given_one_value_per_node_is_split_with_the_nodes():
     args[names.index("good")] = np.full(10, 0.5)
     per_node, _, _ = _fast._split_spec(k.angle_choose, args)
     assert (names.index("good"), 0) in per_node
+    args[names.index("good")] = np.zeros(0)  # empty ("none"): whole, like a scalar
+    per_node, _, _ = _fast._split_spec(k.angle_choose, args)
+    assert (names.index("good"), 0) not in per_node
     args[names.index("good")] = np.full(7, 0.5)  # neither one value nor one per node: not split
     assert _fast._split_spec(k.angle_choose, args) is None
 

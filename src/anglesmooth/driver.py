@@ -18,7 +18,7 @@ import numpy as np
 
 from .mesh import Mesh2D, place_high_order
 from .quality import invalid_cells
-from .smoothers import _fast, get_smoother
+from .smoothers import get_smoother
 from .topology import Topology, build_topology
 
 __all__ = ["SmoothResult", "smooth"]
@@ -160,6 +160,8 @@ def smooth(
 
 
 def _jit_seconds() -> float:
+    from .smoothers import _fast
+
     stats = _fast.jit_stats()
     return stats["compile_s"] + stats["load_s"]
 

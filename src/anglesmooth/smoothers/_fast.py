@@ -115,8 +115,8 @@ METHOD_KERNELS = {
 # argument that is none of these runs whole on one thread (tests/test_fast_install.py checks that
 # every kernel's parameters are known)
 PER_NODE = {"nodes": 0, "x": 0, "X": 1, "scale": 0}
-SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "rp", "nbr", "tp", "tv", "qp", "qv", "directions"}
-SCALARS = {"lengths", "good", "iterations", "radius", "band"}
+SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "rp", "nbr", "tp", "tv", "qp", "qv", "directions", "fl"}
+SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep"}  # or one value per node, or empty
 
 _ENV = "ANGLESMOOTH_KERNEL"
 _kernels = None  # the compiled module, imported on first use
@@ -267,10 +267,10 @@ def _split_spec(fn, args=None):
             continue
         elif p not in SCALARS:
             return None
-        elif args is not None and isinstance(args[i], np.ndarray) and args[i].ndim:
+        elif args is not None and isinstance(args[i], np.ndarray) and args[i].ndim and args[i].shape[0]:
             if args[i].shape[0] != n:
                 return None
-            per_node.append((i, 0))
+            per_node.append((i, 0))  # (an empty array, "none", goes whole like a scalar)
     return tuple(per_node), 1 if "X" in names else 0, at
 
 
