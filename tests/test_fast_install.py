@@ -243,7 +243,7 @@ def test_a_scalar_parameter_given_one_value_per_node_is_split_with_the_nodes():
     k = _fast._k()
     nodes = np.arange(10, dtype=np.int64)
     names = _fast._params(k.angle_choose)
-    args = [np.zeros(3)] * len(names)
+    args = [0.0 if p in _fast.SCALARS else np.zeros(3) for p in names]
     args[names.index("nodes")] = nodes
     args[names.index("good")] = 0.5
     per_node, _, _ = _fast._split_spec(k.angle_choose, args)
