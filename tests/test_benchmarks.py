@@ -69,3 +69,67 @@ def test_bench_speed_tiny(tmp_path):
         assert 0 < st["pass1_s"] <= st["passes_s"]
     assert "stages of 'anglesmooth in.msh out.vtu'" in res.stdout
     assert list(tmp_path.iterdir()) == [out]  # meshes went to a temporary directory
+
+
+MATRIX = ROOT / "benchmarks" / "quality_matrix.py"
+
+
+@pytest.mark.skipif(not MATRIX.exists(), reason="benchmarks/ not shipped")
+def test_quality_matrix_tiny(tmp_path):
+    out, md = tmp_path / "matrix.json", tmp_path / "matrix.md"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
+    cmd = [sys.executable, str(MATRIX), "--tiny", "--quiet", "--cache", str(tmp_path / "cache"),
+           "--json", str(out), "--markdown", str(md)]
+    res = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tmp_path, timeout=600)
+    assert res.returncode == 0, res.stderr
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import families
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    from anglesmooth.smoothers import SMOOTHERS
+
+    methods = [*SMOOTHERS, "literal"]
+    assert md.read_text() == res.stdout
+    # the table: one row per family x (input + every method), every number parses
+    rows = [line.split("|")[1:-1] for line in res.stdout.splitlines() if line.startswith("| ")]
+    header = [c.strip() for c in rows[0]]
+    assert header[:2] == ["family", "method"] and "mean min°" in header and "ms/pass" in header
+    table = {}
+    for r in rows[1:]:
+        cells = [c.strip() for c in r]
+        if len(cells) != len(header):
+            continue  # the verdict table
+        fam = cells[0].split(" (")[0]
+        table[(fam, cells[1])] = dict(zip(header, cells))
+    for fam in families.FAMILIES:
+        for m in ["input", *methods]:
+            row = table[(fam, m)]
+            for col in ("min°", "max°", "mean min°", "mean max°", "<20°", ">150°", "inv"):
+                float(row[col].split(" [")[0])  # median [min-max]; one seed: the bare number
+            if m != "input":
+                assert float(row["ms/pass"]) > 0
+        assert f"| {fam} | **" in res.stdout  # a verdict line per family
+    data = json.loads(out.read_text())
+    assert data["config"]["passes"] == 2 and data["config"]["seeds"] == [0]
+    assert set(data["families"]) == set(families.FAMILIES)
+    for fam, f in data["families"].items():
+        assert f["verdict"]["result"] in ("PASS", "FAIL")
+        assert set(f["per_seed"]) == {"input", *methods}
+        for m, seeds in f["per_seed"].items():
+            assert len(seeds) == 1 and "error" not in seeds[0], (fam, m)
+            s = seeds[0]
+            assert 0 <= s["min_angle"] <= s["mean_min_angle"] <= s["mean_max_angle"] <= s["max_angle"] < 360
+            assert s["inverted"] >= 0 and s["new_nonconvex"] >= 0
+        kind_quads = f["meshes"][0]["quads"] > 0 and f["meshes"][0]["triangles"] == 0
+        assert (f["per_seed"]["angle"][0]["l2_f1"] is not None) == (kind_quads or f["kind"] == "quad"), fam
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cache", "matrix.json", "matrix.md"]
+    # --compare: the same (deterministic) family against the first run's JSON shows equal medians
+    res2 = subprocess.run([*cmd[:6], "--families", "paper-tri", "--methods", "angle,laplacian,literal",
+                           "--compare", str(out)], capture_output=True, text=True, env=env, cwd=tmp_path, timeout=600)
+    assert res2.returncode == 0, res2.stderr
+    line = next(x for x in res2.stdout.splitlines() if x.startswith("| paper-tri | FAIL → ") or x.startswith("| paper-tri | PASS → "))
+    cells = [c.strip() for c in line.split("|")[1:-1]]
+    before, after = cells[2].split(" → ")  # min angle: identical meshes and methods give identical results
+    assert float(before) == float(after)
+    assert "paper-mixed" not in res2.stdout

@@ -369,7 +369,9 @@ def test_each_gate_on_check(meshes, option, ok, bad):
 
 
 def test_max_inverted_gate(meshes):
-    assert run("check", meshes["tangled"]).exit_code == 0  # no gate given
+    # no gate given: inverted cells still fail check (safe default since issue 15)
+    result = run("check", meshes["tangled"])
+    assert result.exit_code == 1 and "gate max_inverted failed" in result.stderr
     result = run("check", meshes["tangled"], "--max-angle", "360")  # any gate => max_inverted 0
     assert result.exit_code == 1 and "gate max_inverted failed" in result.stderr
     assert run("check", meshes["tangled"], "--max-inverted", "100").exit_code == 0
@@ -383,7 +385,9 @@ def test_gates_on_smoothing_apply_after_writing(meshes, tmp_path):
     doc = json.loads(result.stdout)
     assert doc["passed"] is False
     gate = {g["name"]: g for g in doc["gates"]}["min_angle"]
-    assert gate == {"name": "min_angle", "threshold": 89.0, "value": doc["after"]["min_angle"], "passed": False}
+    assert gate == {"name": "min_angle", "threshold": 89.0, "value": doc["after"]["min_angle"], "passed": False,
+                    "cell": gate["cell"]}
+    assert isinstance(gate["cell"], int) and f"(worst cell {gate['cell']})" in result.stderr
     assert f"{out}: gate min_angle failed" in result.stderr
     result = run(meshes["msh"], out, "--min-angle", "89", "--exit-zero", "-q")
     assert result.exit_code == 0 and "gate min_angle failed" in result.stderr
@@ -581,7 +585,7 @@ def test_file_names_with_brackets_are_printed_as_they_are(meshes, tmp_path):
     assert r.exit_code == 0, r.stderr
     assert f"{src}->{out}" in "".join(r.stderr.split())  # the table title (wrapped on narrow terminals)
     assert f"warning: {src}: the input has" in r.stderr  # the tangled-input warning
-    assert f"{out}: all 2 gates passed" in r.stderr
+    assert f"{out}: all 3 gates passed" in r.stderr  # min_angle, max_inverted, max_degenerate
     r = run("check", src, out, "--min-angle", "0", "--max-inverted", "1000")
     assert r.exit_code == 0, r.stderr
     assert "mesh[bold].vtu" in r.stderr and "out[1].vtu" in r.stderr  # the one-row-per-file table

@@ -45,7 +45,8 @@ def test_order_and_skipped_none():
 def test_infinite_area_ratio_fails_and_serializes_as_null():
     (g,) = evaluate({**SUMMARY, "area_ratio": None}, {"max_area_ratio": 1e300})
     assert not g.passed and math.isinf(g.value)
-    assert g.to_dict() == {"name": "max_area_ratio", "threshold": 1e300, "value": None, "passed": False}
+    assert g.to_dict() == {"name": "max_area_ratio", "threshold": 1e300, "value": None, "passed": False,
+                           "cell": None}
     assert g.message("m.vtu") == "m.vtu: gate max_area_ratio failed: inf > 1e+300"
 
 
@@ -57,8 +58,8 @@ def test_undefined_aspect_ratio_passes():
 def test_messages():
     gates = evaluate(SUMMARY, {"min_angle": 20, "max_inverted": 0, "max_angle": 120.5})
     assert [g.message("a.msh") for g in gates] == [
-        "a.msh: gate min_angle failed: 12.3 < 20",
-        "a.msh: gate max_angle failed: 150 > 120.5",
+        "a.msh: gate min_angle failed: 12.3° < 20°",
+        "a.msh: gate max_angle failed: 150.0° > 120.5°",
         "a.msh: gate max_inverted failed: 2 > 0",
     ]
 
@@ -67,8 +68,8 @@ def test_resolve_thresholds(tmp_path):
     f = tmp_path / "g.toml"
     f.write_text("min_angle = 25\nmax_area_ratio = 100\n")
     assert resolve_thresholds({"min_angle": 30, "max_angle": None}, f) == {
-        "min_angle": 30, "max_area_ratio": 100, "max_inverted": 0}
-    assert resolve_thresholds({"max_inverted": 3}) == {"max_inverted": 3}
+        "min_angle": 30, "max_area_ratio": 100, "max_inverted": 0, "max_degenerate": 0}
+    assert resolve_thresholds({"max_inverted": 3}) == {"max_inverted": 3, "max_degenerate": 0}
     assert resolve_thresholds({k: None for k in GATES}) == {}
 
 
@@ -109,3 +110,8 @@ def test_bad_gate_files(tmp_path, text, needle):
 def test_missing_gate_file(tmp_path):
     with pytest.raises(AngleSmoothError, match="cannot read gate file"):
         load_gate_file(tmp_path / "nope.toml")
+
+
+def test_message_of_a_passed_gate_says_so():
+    (g,) = evaluate(SUMMARY, {"min_angle": 10})
+    assert g.message("a.msh") == "a.msh: gate min_angle passed: 12.3° >= 10°"

@@ -11,6 +11,7 @@ The public API::
 meshio is imported only when :func:`read` or :func:`write` is called.
 
 >>> import numpy as np
+>>> from anglesmooth import Mesh2D, SMOOTHERS, smooth
 >>> mesh = Mesh2D.from_arrays([[0, 0], [2, 0], [2, 2], [0, 2], [0.3, 0.4]],
 ...                           triangles=[[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
 >>> result = smooth(mesh, "laplacian", passes=1)
@@ -26,7 +27,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .__about__ import __version__
-from .driver import SmoothResult, smooth
 from .errors import (
     AngleSmoothError,
     InvalidMeshError,
@@ -35,13 +35,31 @@ from .errors import (
     UnknownMethodError,
     UnsupportedMeshError,
 )
-from .mesh import Mesh2D
-from .quality import summarize
-from .smoothers import SMOOTHERS
-from .topology import CellTopology, Topology, build_cell_topology, build_topology
+
+# numpy and the numerical modules load on first use (PEP 562): ``import anglesmooth`` and the
+# command line's start-up stay cheap, so a Ctrl-C while they load is handled by the CLI
+_LAZY = {"SmoothResult": "driver", "smooth": "driver", "Mesh2D": "mesh", "summarize": "quality",
+         "SMOOTHERS": "smoothers", "CellTopology": "topology", "Topology": "topology",
+         "build_cell_topology": "topology", "build_topology": "topology"}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
 
 if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
+
+    from .mesh import Mesh2D
 
 __all__ = [
     "SMOOTHERS",

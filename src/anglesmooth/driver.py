@@ -19,6 +19,7 @@ import numpy as np
 from .mesh import Mesh2D, place_high_order
 from .quality import invalid_cells
 from .smoothers import get_smoother
+from .smoothers._floors import input_floors
 from .topology import Topology, build_topology
 
 __all__ = ["SmoothResult", "smooth"]
@@ -101,7 +102,10 @@ def smooth(
         Stop once a pass moves no node by more than ``tol`` times the mean edge length.
     guard : bool
         Refuse moves that would invert or degenerate a cell or make a quad
-        non-convex (default).  ``False`` gives the methods' textbook form.
+        non-convex, or shrink an anisotropic input cell (boundary layer)
+        below a fixed fraction of its input area or edge length (default; see
+        :func:`anglesmooth.smoothers._floors.input_floors`).  ``False`` gives
+        the methods' textbook form.
     order : {"colour", "jacobi"}
         Gauss-Seidel over colour classes (default) or all nodes at once.
     fixed : bool mask or index array, optional
@@ -130,6 +134,9 @@ def smooth(
     displacements: list[float] = []
     rejected = reverted = 0
     done = 0
+    # the guard keeps the anisotropic (boundary-layer) cells of the input from collapsing
+    if guard and "floors" not in options:
+        options["floors"] = input_floors(pts, topo)
     for k in range(passes):
         new, rej = smoother.step(pts, topo, guard=guard, order=order, **options)
         if recheck:

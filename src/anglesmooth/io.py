@@ -27,13 +27,13 @@ from __future__ import annotations
 import contextlib
 import io as _stdio
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from . import _guard, _paths
 from .errors import AngleSmoothError, InvalidMeshError, MeshReadError, MeshWriteError, UnsupportedMeshError
 from .mesh import Mesh2D
 
@@ -220,7 +220,7 @@ def _read_meshio(p: Path, fmt: str | None, where: str):
     reasons = []
     for name in cands:
         try:
-            with _quiet():
+            with _quiet(), _guard.limits(p, name):
                 return reader_map[name](str(p))
         except MemoryError:
             raise MeshReadError(f"{where}: too large to read: out of memory") from None
@@ -424,7 +424,8 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
     The original meshio mesh in ``mesh.source`` is written with only x, y of
     its points replaced; it is never modified.  The file appears complete or
     not at all: a temporary file in the target directory is written, synced
-    and renamed.
+    and renamed (a symlink is followed; a device, FIFO or socket is written
+    into, never replaced: see ``anglesmooth._paths``).
 
     Parameters
     ----------
@@ -459,14 +460,6 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
         raise InvalidMeshError(f"points have shape {xy.shape}, expected ({mesh.n_points}, 2)")
     if not np.isfinite(xy).all():
         raise InvalidMeshError(f"node {int(np.flatnonzero(~np.isfinite(xy).all(axis=1))[0])} has a non-finite coordinate")
-    parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir():
-        what = "is not a directory" if parent.exists() else "does not exist"
-        raise MeshWriteError(f"{where}: directory '{parent}' {what}")
-    if p.is_dir():
-        raise MeshWriteError(f"{where}: is a directory")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise MeshWriteError(f"{where}: directory '{parent}' is not writable")
     fmt = file_format
     if fmt is None:
         cands = _formats_for(p)
@@ -481,21 +474,9 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
     except Exception as e:
         raise MeshWriteError(f"{where}: {_reason(e)}") from None
     suffix = "".join(p.suffixes[-2:]) if fmt in ("permas", "netgen") else p.suffix
-    try:  # root passes os.access on read-only file systems (and /sys, /proc): creating the file tells
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.tmp", suffix=suffix, dir=parent)
-    except OSError as e:
-        raise MeshWriteError(f"{where}: cannot create a file in '{parent}': {e.strerror or _reason(e)}") from None
-    os.close(fd)
-    try:
-        with _quiet():
-            _write_meshio(tmp, out, fmt, src, binary)
-        with open(tmp, "rb+") as f:
-            os.fsync(f.fileno())
-        os.chmod(tmp, _mode_for(p))
-        os.replace(tmp, p)
+    try:  # temporary file + rename for a regular file, streamed into a device / FIFO (see _paths)
+        _paths.atomic_write(p, lambda tmp: _write_quiet(tmp, out, fmt, src, binary), suffix=suffix)
     except BaseException as e:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
         if isinstance(e, AngleSmoothError) or not isinstance(e, (Exception, SystemExit)):
             raise
         if isinstance(e, MemoryError):
@@ -503,13 +484,9 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
         raise MeshWriteError(f"{where}: {_reason(e)}") from None
 
 
-def _mode_for(p: Path) -> int:
-    try:
-        return p.stat().st_mode & 0o7777
-    except OSError:
-        mask = os.umask(0)
-        os.umask(mask)
-        return 0o666 & ~mask
+def _write_quiet(tmp: str, out, fmt: str, src: _Source | None, binary: bool | None) -> None:
+    with _quiet():
+        _write_meshio(tmp, out, fmt, src, binary)
 
 
 def _write_meshio(tmp: str, out, fmt: str, src: _Source | None, binary: bool | None) -> None:

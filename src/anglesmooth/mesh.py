@@ -151,25 +151,36 @@ class Mesh2D:
 def place_high_order(mesh: Mesh2D, points: np.ndarray, fixed: np.ndarray) -> np.ndarray:
     """Reposition second-order nodes after their corner nodes moved.
 
-    A mid-edge node is put at the midpoint of its edge unless both ends of the
-    edge are fixed (boundary and interface edges keep their, possibly curved,
-    shape).  A quad9 centre node is put at the bilinear centre of its quad (the
-    mean of the four corners) unless all four corners are fixed.
+    A mid-edge node is put at the midpoint of its edge when an end of the edge
+    moved (``points`` differs from ``mesh.points``) and not both ends are fixed
+    (boundary and interface edges keep their, possibly curved, shape).  A quad9
+    centre node is put at the bilinear centre of its quad (the mean of the four
+    corners) when a corner moved and not all four are fixed.  Nodes of edges and
+    cells whose corners did not move are left exactly as they are: ``passes=0``
+    returns every node bit-identical, and a curved interior edge stays curved
+    until smoothing moves one of its ends.
 
     >>> import numpy as np
     >>> m = Mesh2D.from_arrays([[0, 0], [2, 0], [0, 2], [1, 0.3]], triangles=[[0, 1, 2]],
     ...                        midside=[[3, 0, 1]])
-    >>> place_high_order(m, m.points, np.array([False, False, True, True]))[3].tolist()
-    [1.0, 0.0]
+    >>> fixed = np.array([False, False, True, True])
+    >>> place_high_order(m, m.points, fixed)[3].tolist()  # nothing moved: the curved edge stays
+    [1.0, 0.3]
+    >>> moved = m.points.copy(); moved[1] = [2.2, 0]
+    >>> place_high_order(m, moved, fixed)[3].tolist()
+    [1.1, 0.0]
     """
     out = np.array(points, dtype=np.float64, copy=True)
+    if not (mesh.midside.shape[0] or mesh.centres.shape[0]):
+        return out
+    moved = (out != mesh.points).any(axis=1)
     if mesh.midside.shape[0]:
         mid, a, b = mesh.midside.T
-        move = ~(fixed[a] & fixed[b])
+        move = ~(fixed[a] & fixed[b]) & (moved[a] | moved[b])
         out[mid[move]] = 0.5 * (out[a[move]] + out[b[move]])
     if mesh.centres.shape[0]:
         c = mesh.centres
-        move = ~fixed[c[:, 1:5]].all(axis=1)
+        move = ~fixed[c[:, 1:5]].all(axis=1) & moved[c[:, 1:5]].any(axis=1)
         corners = out[c[move, 1:5]]
         out[c[move, 0]] = corners.mean(axis=1)
     return out

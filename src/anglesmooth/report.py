@@ -72,6 +72,9 @@ ROWS: list[tuple[str, str | None, str, str, int]] = [
     ("quad_scaled_jacobian", "min", "quad scaled Jacobian, min", "num", +1),
     ("quad_scaled_jacobian", "mean", "quad scaled Jacobian, mean", "num", +1),
     ("quad_aspect_ratio", "max", "quad aspect ratio, max", "num", -1),
+    ("quad_condition", "max", "quad condition, max", "num", -1),
+    ("min_edge", None, "min edge length", "num", 0),
+    ("edge_ratio", None, "edge ratio (max/min)", "num", -1),
 ]
 
 

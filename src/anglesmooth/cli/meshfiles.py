@@ -3,17 +3,20 @@
 from __future__ import annotations
 
 import contextlib
-import os
 import sys
 import tempfile
 from pathlib import Path
 
+import click
 import numpy as np
 
-from ..errors import AngleSmoothError, MeshWriteError
+from .. import _paths
+from ..errors import AngleSmoothError, MeshReadError
 from .errors import EXIT_INPUT, Usage
 
 STDIO = "-"
+#: ``ctx.meta`` key of the configuration file in use (set by ``main.configure``): an input of every command.
+CONFIG_PATH = "anglesmooth.config_path"
 
 # meshio format name -> file suffix, for the temporary files behind stdin/stdout.
 _SUFFIX = {"gmsh": ".msh", "gmsh22": ".msh", "ansys": ".msh", "vtu": ".vtu", "vtk": ".vtk", "xdmf": ".xdmf",
@@ -50,6 +53,8 @@ def read_mesh(path: str, file_format: str | None):
             return mesh_io.read(path, file_format=file_format)
     if not file_format:
         raise Usage("reading from stdin ('-') needs --input-format (e.g. --input-format gmsh)")
+    if _paths.std_fd_closed(0):
+        raise MeshReadError("cannot read <stdin>: standard input is closed")
     data = _binary(sys.stdin).read()
     with tempfile.TemporaryDirectory(prefix="anglesmooth-") as tmpdir:
         tmp = Path(tmpdir) / ("stdin" + _suffix(file_format))
@@ -62,27 +67,27 @@ def read_mesh(path: str, file_format: str | None):
 
 
 def write_mesh(mesh, path: str, points: np.ndarray, file_format: str | None) -> None:
-    """Write atomically to ``path``, or to stdout for ``-`` (via a temporary file)."""
+    """Write to ``path`` or, for ``-``, stage the bytes for stdout (both committed by the active Outputs)."""
     from .. import io as mesh_io
 
     if path != STDIO:
         with contextlib.redirect_stdout(sys.stderr):
             mesh_io.write(mesh, path, points=points, file_format=file_format)
         return
-    with tempfile.TemporaryDirectory(prefix="anglesmooth-") as tmpdir:
-        tmp = Path(tmpdir) / ("stdout" + _suffix(file_format))
+
+    def write(tmp):
         try:
             with contextlib.redirect_stdout(sys.stderr):
                 mesh_io.write(mesh, tmp, points=points, file_format=file_format)
         except AngleSmoothError as exc:
-            raise _retarget(exc, tmp, "<stdout>") from None
-        out = _binary(sys.stdout)
-        out.write(tmp.read_bytes())
-        out.flush()
+            raise _retarget(exc, Path(tmp), "<stdout>") from None
+
+    _paths.active().stage_stdout("OUTPUT", write, suffix=_suffix(file_format))
 
 
-def check_paths(input, output, *, force, in_place, input_format, output_format, json_path) -> str:
-    """Validate INPUT / OUTPUT and the overwrite rules; return the output path."""
+def check_paths(input, output, *, force, in_place, input_format, output_format, json_path, plot=None,
+                fix_nodes=None, gate_file=None, junit_path=None) -> tuple[str, _paths.Outputs]:
+    """Validate INPUT / OUTPUT and the overwrite rules; return the output path and every output, checked."""
     if in_place:
         if output is not None:
             raise Usage("--in-place writes back to INPUT; do not give an OUTPUT")
@@ -97,36 +102,19 @@ def check_paths(input, output, *, force, in_place, input_format, output_format, 
         raise Usage("writing to stdout ('-') needs --output-format (e.g. --output-format vtu)")
     if output == STDIO and json_path == STDIO:
         raise Usage("OUTPUT '-' and --json - cannot both use stdout")
-    if STDIO not in (input, output) and not (force or in_place) and _same_file(input, output):
-        raise Usage(f"OUTPUT '{output}' is the input file; pass --force or --in-place to overwrite it")
-    if output != STDIO:
-        check_writable(output, "cannot write")
-    if json_path is not None and json_path != STDIO:
-        check_writable(json_path, "cannot write JSON report")
-    return output
+    outs = plan_outputs({"OUTPUT": output, "--json": json_path, "--plot": plot, "--junit-xml": junit_path},
+                        [("INPUT", input), ("--fix-nodes", fix_nodes), ("--gate-file", gate_file)],
+                        may_replace_input=("OUTPUT",) if force or in_place else ())
+    return output, outs
 
 
-def check_writable(path: str, what: str) -> None:
-    """Fail before any work if a file cannot be created in ``path``'s directory."""
-    parent = Path(path).absolute().parent
-    if not parent.exists():
-        raise MeshWriteError(f"{what} '{path}': directory '{parent}' does not exist")
-    if not parent.is_dir():
-        raise MeshWriteError(f"{what} '{path}': '{parent}' is not a directory")
-    if Path(path).is_dir():
-        raise MeshWriteError(f"{what} '{path}': it is a directory")
-    try:
-        with tempfile.NamedTemporaryFile(dir=parent, prefix=".anglesmooth-probe-"):
-            pass
-    except OSError as exc:
-        raise MeshWriteError(f"{what} '{path}': cannot create a file in '{parent}': {exc.strerror or exc}") from None
-
-
-def _same_file(a: str, b: str) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return False
+def plan_outputs(outputs: dict, inputs: list, may_replace_input=()) -> _paths.Outputs:
+    """Every output of a command, resolved and checked against every input and each other (see _paths)."""
+    what = {"--json": "cannot write JSON report", "--plot": "cannot write plot", "--junit-xml": "cannot write JUnit XML"}
+    ctx = click.get_current_context(silent=True)
+    config = ctx.meta.get(CONFIG_PATH) if ctx is not None else None
+    inputs = [*inputs, ("the configuration file", str(config) if config is not None else None)]
+    return _paths.Outputs.check(outputs, inputs, may_replace_input=may_replace_input, what=what)
 
 
 def read_fix_nodes(path: str) -> np.ndarray:
@@ -137,10 +125,14 @@ def read_fix_nodes(path: str) -> np.ndarray:
         raise Usage(f"--fix-nodes: cannot read '{path}': {getattr(exc, 'strerror', None) or exc}") from None
     tokens = [t for line in text.splitlines() for t in line.split("#", 1)[0].split()]
     try:
-        return np.array([int(t) for t in tokens], dtype=np.int64)
+        values = [int(t) for t in tokens]
     except ValueError:
         bad = next(t for t in tokens if not t.lstrip("+-").isdigit())
         raise Usage(f"--fix-nodes: '{path}' holds {bad!r}, expected 0-based node indices") from None
+    big = next((v for v in values if not -(2**63) <= v < 2**63), None)
+    if big is not None:
+        raise Usage(f"--fix-nodes: node {big} in '{path}' is out of range")
+    return np.array(values, dtype=np.int64)
 
 
 def extra_fixed(mesh, groups: tuple[str, ...], nodes: np.ndarray | None) -> np.ndarray | None:

@@ -4,17 +4,36 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import math
+
 import click
+
+
+class FiniteFloat(click.FloatRange):
+    """A finite number (``nan`` / ``inf`` are refused, as the gate file refuses them)."""
+
+    name = "finite float"
+
+    def convert(self, value, param, ctx):
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number.", param, ctx)
+        return number
+
 
 def gate_options(f: Callable) -> Callable:
     options = [
-        click.option("--min-angle", type=float, metavar="DEG", help="Gate: smallest corner angle must be >= DEG."),
-        click.option("--max-angle", type=float, metavar="DEG", help="Gate: largest corner angle must be <= DEG."),
+        click.option("--min-angle", type=FiniteFloat(), metavar="DEG",
+                     help="Gate: smallest corner angle must be >= DEG."),
+        click.option("--max-angle", type=FiniteFloat(), metavar="DEG",
+                     help="Gate: largest corner angle must be <= DEG."),
         click.option("--max-inverted", type=click.IntRange(min=0), metavar="N",
-                     help="Gate: at most N inverted cells (0 when any other gate is given)."),
-        click.option("--max-area-ratio", type=click.FloatRange(min=0), metavar="R",
+                     help="Gate: at most N inverted cells (0 in check, and when any other gate is given)."),
+        click.option("--max-degenerate", type=click.IntRange(min=0), metavar="N",
+                     help="Gate: at most N degenerate (zero-area) cells (0 in check, and when any other gate is given)."),
+        click.option("--max-area-ratio", type=FiniteFloat(min=0), metavar="R",
                      help="Gate: max/min cell area must be <= R."),
-        click.option("--max-aspect-ratio", type=click.FloatRange(min=0), metavar="R",
+        click.option("--max-aspect-ratio", type=FiniteFloat(min=0), metavar="R",
                      help="Gate: largest Verdict aspect ratio (triangles and quads) must be <= R."),
         click.option("--gate-file", type=click.Path(exists=True, dir_okay=False), metavar="FILE",
                      help="TOML file with gate thresholds (same names, underscores); options override it."),

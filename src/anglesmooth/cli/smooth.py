@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-
 import click
 
 from .. import report
@@ -14,12 +12,13 @@ from ..smoothers import SMOOTHERS
 from ..smoothers._fast import active as fast_active
 from ..smoothers._fast import compile_estimate, kernel_mode, set_threads
 from ..topology import build_topology
+from . import formats
 from .errors import EXIT_GATE, handle_errors
 from .meshfiles import STDIO, check_paths, display, extra_fixed, read_fix_nodes, read_mesh, write_mesh
 from .options import (debug_option, gate_options, input_format_option, json_option, no_guard_option, order_option,
                       quiet_option)
-from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, plain, progress_bar,
-                      report_gates, stage_json, warn_invalid)
+from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, note_stale, plain,
+                      progress_bar, warn_invalid)
 
 
 @click.command("smooth")
@@ -41,6 +40,8 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
 @click.option("--output-format", metavar="FORMAT", help="meshio format of OUTPUT (needed for '-').")
 @gate_options
 @json_option
+@formats.format_option
+@formats.junit_option
 @click.option("--plot", type=click.Path(dir_okay=False), metavar="PNG",
               help="Write a PNG: mesh before/after coloured by minimum angle, angle histograms.")
 @click.option("--progress/--no-progress", default=None,
@@ -52,11 +53,15 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
 @debug_option
 @handle_errors
 def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, fix_nodes, force, in_place,
-               input_format, output_format, json_path, plot, progress, threads, quiet, debug, **gate_opts) -> None:
+               input_format, output_format, json_path, report_format, junit_path, plot, progress, threads, quiet,
+               debug, **gate_opts) -> None:
     """Smooth INPUT and write OUTPUT ('-' for stdin/stdout); gates apply to the result, after writing it."""
     console = make_console(quiet)
-    output = check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
-                         output_format=output_format, json_path=json_path)
+    formats.check_junit_path(junit_path)
+    output, outs = check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
+                               output_format=output_format, json_path=json_path, plot=plot, fix_nodes=fix_nodes,
+                               gate_file=gate_opts.get("gate_file"), junit_path=junit_path)
+    note_stale(console, outs)
     thresholds, exit_zero = gate_thresholds(gate_opts)
     kernel_mode()  # a bad ANGLESMOOTH_KERNEL is a usage error before any work
     set_threads(threads)
@@ -66,38 +71,39 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
         require_matplotlib()
     user_nodes = read_fix_nodes(fix_nodes) if fix_nodes else None
     name, out_name = display(input), "<stdout>" if output == STDIO else output
-    mesh = read_mesh(input, input_format)
-    topo = build_topology(mesh, extra_fixed(mesh, fix_group, user_nodes))
-    before = summarize(mesh.points, topo)
-    warn_invalid(console, name, before)
-    note_fast(console, topo, passes)
-    compiled = bool(passes) and fast_active(topo)
-    compiling = compile_estimate(method) if compiled else 0.0
-    if compiling:  # the first run ever (or after an upgrade): say so, whatever stderr is
-        plain(console, f"compiling kernels once, about {max(1, round(compiling))} s")
-    with progress_bar(console, passes, mesh.n_cells, progress, compiled=compiled, compiling=bool(compiling)) as callback:
-        result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
-                            callback=callback)
-    after = summarize(result.points, topo)
-    gates = evaluate(after, thresholds)
-    document = report.smooth_json(
-        input=name, output=out_name, method=method, guard=not no_guard, order=order, passes=result.passes,
-        passes_requested=passes, tol=tol, displacements=result.displacements, rejected=result.rejected,
-        before=before, after=after, elapsed_s=result.elapsed_s, gates=gates, passed=all(g.passed for g in gates),
-        compile_s=result.compile_s)
-    # the JSON file is staged first and renamed after the mesh is written: an error in
-    # either leaves neither behind
-    staged = stage_json(json_path, document) if json_path not in (None, STDIO) else None
-    try:
+    # every output is staged and committed together at the end: an error or a signal
+    # before that leaves none of them (see README "Rules")
+    with outs:
+        mesh = read_mesh(input, input_format)
+        topo = build_topology(mesh, extra_fixed(mesh, fix_group, user_nodes))
+        before = summarize(mesh.points, topo)
+        warn_invalid(console, name, before)
+        note_fast(console, topo, passes)
+        compiled = bool(passes) and fast_active(topo)
+        compiling = compile_estimate(method) if compiled else 0.0
+        if compiling:  # the first run ever (or after an upgrade): say so, whatever stderr is
+            plain(console, f"compiling kernels once, about {max(1, round(compiling))} s")
+        with progress_bar(console, passes, mesh.n_cells, progress, compiled=compiled,
+                          compiling=bool(compiling)) as callback:
+            result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
+                                callback=callback)
+        after = summarize(result.points, topo)
+        gates = evaluate(after, thresholds, result.points, topo)
+        document = report.smooth_json(
+            input=name, output=out_name, method=method, guard=not no_guard, order=order, passes=result.passes,
+            passes_requested=passes, tol=tol, displacements=result.displacements, rejected=result.rejected,
+            before=before, after=after, elapsed_s=result.elapsed_s, gates=gates,
+            passed=all(g.passed for g in gates), compile_s=result.compile_s)
+        outcomes = [formats.Outcome(out_name, gates)]
         write_mesh(mesh, output, result.points, output_format)
-    except BaseException:
-        if staged is not None:
-            staged.unlink(missing_ok=True)
-        raise
-    if staged is not None:
-        os.replace(staged, json_path)
-    elif json_path == STDIO:
         emit_json(json_path, document)
+        if junit_path:
+            formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth smooth"))
+        if plot:
+            from ..plot import plot_smooth
+
+            plot_smooth(plot, topo, mesh.points, result.points, title=f"{name}: {method}, {result.passes} passes")
+        outs.commit()
     run = {"passes performed": f"{result.passes} / {passes}", "rejected moves": result.rejected,
            "last displacement": f"{result.displacements[-1] if result.displacements else 0:.3g} x mean edge",
            "time": f"{result.elapsed_s:.3f} s"}
@@ -105,10 +111,9 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
         run["kernel compile / load"] = f"{result.compile_s:.3f} s"
     guard = "guarded" if not no_guard else "no guard"
     console.print(report.smooth_table(before, after, run, title=f"{name} -> {out_name}: {method}, {guard}, {order}"))
-    passed = report_gates(console, out_name, gates)
-    if plot:
-        from ..plot import plot_smooth
-
-        plot_smooth(plot, topo, mesh.points, result.points, title=f"{name}: {method}, {result.passes} passes")
+    if gates:  # without gates there is nothing to report
+        formats.report(report_format, outcomes, lambda text: plain(console, text),
+                       data_on_stdout=STDIO in (output, json_path))
+    passed = all(g.passed for g in gates)
     if not passed and not exit_zero:
         raise click.exceptions.Exit(EXIT_GATE)

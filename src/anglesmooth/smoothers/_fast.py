@@ -420,13 +420,24 @@ def local_scale(points: np.ndarray, topo, blk, subset: np.ndarray | None = None)
     return _run(_k().ring_mean, points, nodes, topo.free_nodes, rp, topo.ring_nbr, True)[:, 0]
 
 
-def angle_choose(points: np.ndarray, topo, blk, good: float):
-    """Stages 1 and 2 of the robust ``angle`` update, fused per node (see :func:`.angle.step`)."""
+def _floors(floors) -> np.ndarray:
+    """The input floors (``_floors.Floors`` or None) as the (6, rows) array the kernels take; (0, 0) for none."""
+    return np.zeros((0, 0)) if floors is None or not floors.active else floors.packed
+
+
+def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None):
+    """Stages 1 and 2 of the robust ``angle`` update, fused per node (see :func:`.angle.step`).
+
+    ``good``: the acceptance score threshold, one per block node or one for all; ``keep``: None or
+    a bool per block node, where the angle position must also be no worse than staying.
+    """
     rp, sp, tp, qp = _csr(topo)
+    good = np.ascontiguousarray(np.broadcast_to(np.asarray(good, dtype=np.float64), (blk.size,)))
     return _run(
         _k().angle_choose,
         points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,
-        rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, float(good),
+        rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, good, _floors(floors),
+        np.zeros(0, np.bool_) if keep is None else np.ascontiguousarray(keep, dtype=np.bool_),
     )
 
 
@@ -439,14 +450,15 @@ class FastGeometry:
     the free-node indices it scores.
     """
 
-    def __init__(self, points: np.ndarray, topo, blk, nodes: np.ndarray | None = None):
+    def __init__(self, points: np.ndarray, topo, blk, nodes: np.ndarray | None = None, floors=None):
         self._pts = points
         self._topo = topo
         self._nodes = _nodes(blk) if nodes is None else nodes
         self.n = self._nodes.shape[0]
+        self._fl = floors if isinstance(floors, np.ndarray) else _floors(floors)
 
     def restrict(self, subset: np.ndarray) -> FastGeometry:
-        return FastGeometry(self._pts, self._topo, None, self._nodes[subset])
+        return FastGeometry(self._pts, self._topo, None, self._nodes[subset], self._fl)
 
     def score(self, X: np.ndarray) -> np.ndarray:
         """Local score at candidate positions ``X`` (..., n, 2) -> (..., n)."""
@@ -454,7 +466,7 @@ class FastGeometry:
         _, _, tp, qp = _csr(t)
         X = np.asarray(X, dtype=np.float64)
         Xf = np.ascontiguousarray(X.reshape((-1, self.n, 2)))
-        s = _run(_k().score, self._pts, Xf, self._nodes, tp, t.tri_verts, qp, t.quad_verts)
+        s = _run(_k().score, self._pts, Xf, self._nodes, tp, t.tri_verts, qp, t.quad_verts, self._fl)
         return s.reshape(X.shape[:-2] + (self.n,))
 
     def compass(self, x, scale, iterations: int, radius: float, area_band: float | None, directions: np.ndarray):
@@ -465,7 +477,7 @@ class FastGeometry:
         return _run(
             _k().compass, self._pts, np.ascontiguousarray(x, dtype=np.float64), self._nodes, tp, t.tri_verts, qp,
             t.quad_verts, np.ascontiguousarray(scale, dtype=np.float64), int(iterations), float(radius), band,
-            directions,
+            directions, self._fl,
         )
 
 
