@@ -34,7 +34,7 @@ REQUIRED_SUMMARY = {
 }
 SMOOTH_KEYS = {
     "schema_version", "anglesmooth_version", "input", "output", "method", "guard", "order", "passes",
-    "passes_requested", "displacement", "rejected", "before", "after", "elapsed_s", "gates", "passed",
+    "passes_requested", "displacement", "rejected", "before", "after", "elapsed_s", "compile_s", "gates", "passed",
 }
 
 

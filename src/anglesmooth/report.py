@@ -266,6 +266,7 @@ def smooth_json(
     elapsed_s: float,
     gates: Sequence[Any],
     passed: bool,
+    compile_s: float = 0.0,
 ) -> dict[str, Any]:
     """The JSON document of a smoothing run (see the README for the schema)."""
     return {
@@ -284,6 +285,7 @@ def smooth_json(
         "before": dict(before),
         "after": dict(after),
         "elapsed_s": elapsed_s,
+        "compile_s": compile_s,
         "gates": [g.to_dict() for g in gates],
         "passed": passed,
     }

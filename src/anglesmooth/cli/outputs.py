@@ -105,7 +105,8 @@ def warn_invalid(console: Console, name: str, summary: dict) -> None:
 
 
 @contextlib.contextmanager
-def progress_bar(console: Console, total: int, n_cells: int, wanted: bool | None, compiled: bool = False):
+def progress_bar(console: Console, total: int, n_cells: int, wanted: bool | None, compiled: bool = False,
+                 compiling: bool = False):
     auto = wanted is None and console.is_terminal and n_cells > PROGRESS_MIN_CELLS
     if not (wanted or auto) or console.quiet or total == 0:
         yield None
@@ -116,8 +117,10 @@ def progress_bar(console: Console, total: int, n_cells: int, wanted: bool | None
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
-    # the first pass loads the compiled kernels, and on the very first run compiles them (~15 s)
-    first = "smoothing (loading the compiled kernels; the first run ever compiles them)" if compiled else "smoothing"
+    # the first pass loads the compiled kernels, and on the very first run compiles them
+    first = "smoothing"
+    if compiled:
+        first = "smoothing (compiling kernels once)" if compiling else "smoothing (loading the compiled kernels)"
     with Progress(*columns, console=console, transient=True) as bar:
         task = bar.add_task(first, total=total)
 

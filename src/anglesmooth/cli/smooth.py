@@ -10,7 +10,7 @@ from ..gates import evaluate
 from ..quality import summarize
 from ..smoothers import SMOOTHERS
 from ..smoothers._fast import active as fast_active
-from ..smoothers._fast import kernel_mode
+from ..smoothers._fast import compile_estimate, kernel_mode, set_threads
 from ..topology import build_topology
 from . import formats
 from .errors import EXIT_GATE, handle_errors
@@ -53,12 +53,15 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
               help="Write a PNG: mesh before/after coloured by minimum angle, angle histograms.")
 @click.option("--progress/--no-progress", default=None,
               help=f"Progress bar over passes [default: on a terminal with > {PROGRESS_MIN_CELLS} cells].")
+@click.option("--threads", type=click.IntRange(min=1), metavar="N",
+              help="At most N threads for the compiled kernels [default: the cores this process may use; "
+                   "NUMBA_NUM_THREADS caps it too].")
 @quiet_option
 @debug_option
 @handle_errors
 def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, fix_nodes, node_numbering, force,
                in_place, input_format, output_format, binary, json_path, report_format, junit_path, plot, progress,
-               quiet, debug, **gate_opts) -> None:
+               threads, quiet, debug, **gate_opts) -> None:
     """Smooth INPUT and write OUTPUT ('-' for stdin/stdout); gates apply to the result, after writing it.
 
     An existing OUTPUT of the input's format (by its extension: 'anglesmooth a.msh b.msh' where b.msh exists,
@@ -73,6 +76,7 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
     note_stale(console, outs)
     thresholds, exit_zero = gate_thresholds(gate_opts)
     kernel_mode()  # a bad ANGLESMOOTH_KERNEL is a usage error before any work
+    set_threads(threads)
     if plot:
         from ..plot import require_matplotlib
 
@@ -89,7 +93,12 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
         before = summarize(mesh.points, topo)
         warn_invalid(console, name, before)
         note_fast(console, topo, passes)
-        with progress_bar(console, passes, mesh.n_cells, progress, compiled=fast_active(topo)) as callback:
+        compiled = bool(passes) and fast_active(topo)
+        compiling = compile_estimate(method) if compiled else 0.0
+        if compiling:  # the first run ever (or after an upgrade): say so, whatever stderr is
+            plain(console, f"compiling kernels once, about {max(1, round(compiling))} s")
+        with progress_bar(console, passes, mesh.n_cells, progress, compiled=compiled,
+                          compiling=bool(compiling)) as callback:
             result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
                                 callback=callback)
         after = summarize(result.points, topo)
@@ -98,7 +107,7 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
             input=name, output=out_name, method=method, guard=not no_guard, order=order, passes=result.passes,
             passes_requested=passes, tol=tol, displacements=result.displacements, rejected=result.rejected,
             before=before, after=after, elapsed_s=result.elapsed_s, gates=gates,
-            passed=all(g.passed for g in gates))
+            passed=all(g.passed for g in gates), compile_s=result.compile_s)
         outcomes = [formats.Outcome(out_name, gates)]
         write_mesh(mesh, output, result.points, output_format, binary)
         emit_json(json_path, document)
@@ -112,6 +121,8 @@ def smooth_cmd(input, output, method, passes, tol, no_guard, order, fix_group, f
     run = {"passes performed": f"{result.passes} / {passes}", "rejected moves": result.rejected,
            "last displacement": f"{result.displacements[-1] if result.displacements else 0:.3g} x mean edge",
            "time": f"{result.elapsed_s:.3f} s"}
+    if result.compile_s:
+        run["kernel compile / load"] = f"{result.compile_s:.3f} s"
     guard = "guarded" if not no_guard else "no guard"
     console.print(report.smooth_table(before, after, run, title=f"{name} -> {out_name}: {method}, {guard}, {order}"))
     if gates:  # without gates there is nothing to report

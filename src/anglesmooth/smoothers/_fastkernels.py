@@ -2,8 +2,11 @@
 
 Each per-node helper (``_node_*``) mirrors, operation for operation, the numpy
 code it replaces in :mod:`._local` or :mod:`.angle` (named in its docstring);
-keep the two in step.  The exported kernels loop over nodes in parallel
-(``prange``): a node reads the shared points and writes only its own outputs.
+keep the two in step.  The exported kernels loop over the nodes they are
+given (``prange``, compiled serially): a node reads the shared points and
+writes only its own outputs, so :func:`._fast._run` runs them on several
+threads by splitting the nodes (numba's own parallel layer costs five times
+the compile time and oversubscribes busy machines; see ``_fast``).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from ._local import INVALID, INVERTED_WEIGHT
 
 # error_model="numpy": x / 0 gives inf / NaN as in numpy instead of raising; no fastmath, so no
 # reassociation or fused multiply-adds and the same rounding as numpy
-_OPTS = {"cache": True, "error_model": "numpy", "parallel": True, "nogil": True}
+_OPTS = {"cache": True, "error_model": "numpy", "parallel": False, "nogil": True}
 _TWO_PI = 2 * np.pi
 
 
