@@ -22,7 +22,14 @@ every case in its own subprocess so that the peak RSS of each case is its own:
   fresh process (start-up included), with the peak RSS of the CLI process;
 * where the end-to-end time goes: the CLI's stages (read, topology, quality
   summary, kernel load, passes, summary, write) timed in one process through
-  the library, for the binary ``.msh`` (a second table).
+  the library, for the binary ``.msh`` (a second table);
+* with ``--load N`` (default: one per core) the default ``angle`` pass again
+  with each kernel while N busy-loop processes compete for the cores (numba
+  with the automatic thread count and with one thread): a busy machine;
+* cold and warm first run (``--cold-size``, default 200k triangles): the CLI
+  with an empty kernel cache directory, then again with the filled one, and the
+  first pass of the library alone in both states, with the compile (or load)
+  time reported apart (a third table).
 
 Usage::
 
@@ -30,6 +37,7 @@ Usage::
     PYTHONPATH=src python benchmarks/bench_speed.py --sizes 100k,1M --repeat 5 --json out.json
     PYTHONPATH=src python benchmarks/bench_speed.py --kernels numpy,numba   # both kernels, every size
     PYTHONPATH=src python benchmarks/bench_speed.py --tiny          # seconds; what the test runs
+    PYTHONPATH=src python benchmarks/bench_speed.py --sizes 1M --load 2 --cold-size 200k
 
 No number here is asserted anywhere: the benchmark prints, it does not judge.
 """
@@ -50,7 +58,7 @@ from pathlib import Path
 import numpy as np
 
 SIZES = {"10k": ("tri", 10_000), "100k": ("tri", 100_000), "1M": ("tri", 1_000_000), "quad250k": ("quad", 250_000)}
-EXTRA_SIZES = {"quad1M": ("quad", 1_000_000)}  # only when asked for (--sizes quad1M): 1M nodes
+EXTRA_SIZES = {"quad1M": ("quad", 1_000_000), "200k": ("tri", 200_000)}  # only when asked for: --sizes quad1M
 TINY = {"tiny": ("tri", 2_000), "tinyquad": ("quad", 1_000)}
 SRC = Path(__file__).resolve().parents[1] / "src"
 
@@ -95,6 +103,15 @@ def make_mesh(kind: str, n_cells: int, seed: int = 0):
 
 
 def write_inputs(name: str, kind: str, n_cells: int, tmp: Path) -> dict:
+    """The meshes of one size, generated in a subprocess: a child process starts with its parent's
+    peak RSS (Linux keeps it across fork and exec), so the driver itself must stay small."""
+    info = _run_worker(["inputs", name, kind, str(n_cells), str(tmp)])
+    if "error" in info:
+        raise RuntimeError(f"generating {name}: {info['error']}")
+    return info
+
+
+def _write_inputs(name: str, kind: str, n_cells: int, tmp: Path) -> dict:
     mesh = make_mesh(kind, n_cells)
     npz = tmp / f"{name}.npz"
     np.savez(npz, points=mesh.points, triangles=mesh.triangles, quads=mesh.quads)
@@ -127,10 +144,24 @@ def _peak_rss_mb() -> float:
     return kb / 1024.0 if sys.platform != "darwin" else kb / 2**20
 
 
-def worker_method(npz: str, method: str, guard: bool, repeat: int) -> dict:
+def _busy_loops(n: int) -> list:
+    """``n`` processes spinning on the CPU until killed: the competing load of ``--load``."""
+    return [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(n)]
+
+
+def _stop(procs: list) -> None:
+    for p in procs:
+        p.kill()
+        p.wait()
+
+
+def worker_method(npz: str, method: str, guard: bool, repeat: int, threads: int = 0, load: int = 0) -> dict:
     from anglesmooth.mesh import Mesh2D
     from anglesmooth.smoothers import SMOOTHERS, _fast
     from anglesmooth.topology import build_topology
+
+    if threads:
+        _fast.set_threads(threads)
 
     d = np.load(npz)
     mesh = Mesh2D.from_arrays(d["points"], triangles=d["triangles"], quads=d["quads"])
@@ -146,12 +177,22 @@ def worker_method(npz: str, method: str, guard: bool, repeat: int) -> dict:
     step = SMOOTHERS[method].step
     pts = np.array(mesh.points)
     times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        pts = step(pts, topo, guard=guard).points
-        times.append(time.perf_counter() - t0)
+    loaders = _busy_loops(load)
+    try:
+        time.sleep(0.3 if load else 0.0)  # let the load start
+        cpu = []
+        for _ in range(repeat):
+            t0, c0 = time.perf_counter(), time.process_time()
+            pts = step(pts, topo, guard=guard).points
+            times.append(time.perf_counter() - t0)
+            cpu.append(time.process_time() - c0)
+    finally:
+        _stop(loaders)
     out = {"setup_s": setup, "pass_s": statistics.median(times), "passes_s": times, "peak_rss_mb": _peak_rss_mb(),
-           "kernel": kernel, "jit_s": jit}
+           "pass_cpu_s": statistics.median(cpu),
+           "kernel": kernel, "jit_s": jit, "load": load,
+           "threads": (_fast.threads(max(b.nodes.stop - b.nodes.start for b in topo.blocks())) if kernel == "numba"
+                       else 1)}
     if method == "laplacian" and guard is False:
         out["bincount_pass_s"] = _bincount_pass(mesh.points, topo, repeat)
     return out
@@ -183,6 +224,27 @@ def worker_meshio(msh: str, out: str) -> dict:
     meshio.write(out, m, file_format="vtu", compression="zlib")
     t2 = time.perf_counter()
     return {"read_s": t1 - t0, "write_s": t2 - t1, "total_s": t2 - t0, "peak_rss_mb": _peak_rss_mb()}
+
+
+def worker_first(npz: str) -> dict:
+    """The first default ``angle`` pass of a process (the kernels compile or load in it), the second,
+    and the compile / load time counted by ``_fast.jit_stats`` (the cache directory is the caller's)."""
+    from anglesmooth.mesh import Mesh2D
+    from anglesmooth.smoothers import SMOOTHERS, _fast
+    from anglesmooth.topology import build_topology
+
+    d = np.load(npz)
+    mesh = Mesh2D.from_arrays(d["points"], triangles=d["triangles"], quads=d["quads"])
+    topo = build_topology(mesh)
+    cold = _fast.cold_kernels(_fast.METHOD_KERNELS["angle"]) if _fast.active(topo) else []
+    pts, times = np.array(mesh.points), []
+    for _ in range(2):
+        t0 = time.perf_counter()
+        pts = SMOOTHERS["angle"].step(pts, topo).points
+        times.append(time.perf_counter() - t0)
+    st = _fast.jit_stats()
+    return {"pass1_s": times[0], "pass2_s": times[1], "compile_s": st["compile_s"], "load_s": st["load_s"],
+            "cold_kernels": cold, "kernel": "numba" if _fast.active(topo) else "numpy", "peak_rss_mb": _peak_rss_mb()}
 
 
 STAGES = ("import", "read", "topology", "summary", "passes", "summary2", "write")
@@ -223,11 +285,14 @@ def worker_stages(msh: str, out: str, passes: int = 10) -> dict:
     return out_d
 
 
-def _run_worker(args: list[str], kernel: str | None = None) -> dict:
+def _run_worker(args: list[str], kernel: str | None = None, cache: str | None = None) -> dict:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(SRC), env.get("PYTHONPATH", "")])
     if kernel is not None:
         env["ANGLESMOOTH_KERNEL"] = kernel
+    if cache is not None:
+        env.pop("NUMBA_CACHE_DIR", None)
+        env["ANGLESMOOTH_CACHE_DIR"] = cache
     res = subprocess.run([sys.executable, __file__, "--worker", *args], capture_output=True, text=True, env=env)
     if res.returncode != 0:
         return {"error": (res.stderr.strip().splitlines() or ["failed"])[-1]}
@@ -252,10 +317,13 @@ def _run_timed(cmd: list[str], env: dict) -> tuple[float, int, float]:
     return wall, proc.returncode, usage.ru_maxrss / 1024.0
 
 
-def run_cli(args: list[str], repeat: int = 1) -> dict:
+def run_cli(args: list[str], repeat: int = 1, cache: str | None = None) -> dict:
     """``python -m anglesmooth ARGS`` ``repeat`` times in fresh processes: median wall time, largest peak RSS."""
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(SRC), env.get("PYTHONPATH", "")])
+    if cache is not None:
+        env.pop("NUMBA_CACHE_DIR", None)
+        env["ANGLESMOOTH_CACHE_DIR"] = cache
     runs = [_run_timed([sys.executable, "-m", "anglesmooth", *args], env) for _ in range(max(1, repeat))]
     codes = {rc for _, rc, _ in runs}
     return {"total_s": statistics.median(w for w, _, _ in runs), "runs_s": [w for w, _, _ in runs],
@@ -271,8 +339,38 @@ def cases() -> list[tuple[str, bool]]:
     return [(m, True) for m in SMOOTHERS] + [("angle", False), ("laplacian", False)]
 
 
+def run_cold(name: str, kind: str, n_cells: int, tmp: Path, cli: bool) -> list[dict]:
+    """Cold (empty kernel cache directory) and warm (the same directory, filled) first runs."""
+    import shutil
+
+    info = write_inputs(name, kind, n_cells, tmp)
+    cache = str(tmp / "kernel-cache")
+    rows = []
+    common = {"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"]}
+    for state in ("cold", "warm"):
+        if state == "cold":
+            shutil.rmtree(cache, ignore_errors=True)
+        r = _run_worker(["first", info["npz"]], cache=cache)
+        rows.append({**common, "method": f"first pass ({state})", "guard": True, "state": state, **r})
+    if cli and info["msh"]:
+        for state in ("cold", "warm"):
+            if state == "cold":
+                shutil.rmtree(cache, ignore_errors=True)
+            report = tmp / f"{name}_{state}.json"
+            c = run_cli([info["msh"]["binary"], str(tmp / f"{name}_cold.vtu"), "--passes", "10", "--json",
+                         str(report)], cache=cache)
+            doc = json.loads(report.read_text()) if report.exists() else {}
+            rows.append({**common, "method": f"CLI ({state} cache)", "guard": True, "state": state,
+                         "e2e_s": c["total_s"], "returncode": c["returncode"], "peak_rss_mb": c["peak_rss_mb"],
+                         "compile_s": doc.get("compile_s"), "elapsed_s": doc.get("elapsed_s")})
+    shutil.rmtree(cache, ignore_errors=True)
+    for p in tmp.glob(f"{name}*"):
+        p.unlink()
+    return rows
+
+
 def run(sizes: dict, repeat: int, cli: bool, tmp: Path, slow_repeat: int | None = None,
-        kernels: tuple[str, ...] = ("auto",), e2e_repeat: int = 3) -> list[dict]:
+        kernels: tuple[str, ...] = ("auto",), e2e_repeat: int = 3, load: int = 0) -> list[dict]:
     rows = []
     for name, (kind, n_cells) in sizes.items():
         info = write_inputs(name, kind, n_cells, tmp)
@@ -287,11 +385,21 @@ def run(sizes: dict, repeat: int, cli: bool, tmp: Path, slow_repeat: int | None 
                 results[(method, guard)] = r
                 print(f"#   {kernel:5s} {method:16s} guard={guard!s:5s} {r.get('pass_s', float('nan')):8.3f} s/pass",
                       file=sys.stderr, flush=True)
+            if load and kernel in ("auto", "numba"):  # the same default pass on a busy machine
+                for threads in (0, 1):
+                    r = _run_worker(["method", info["npz"], "angle", "1", str(repeat), str(threads), str(load)],
+                                    kernel)
+                    results[("angle", True, "load", threads)] = r
+                    print(f"#   {kernel:5s} angle load={load} threads={r.get('threads')} "
+                          f"{r.get('pass_s', float('nan')):8.3f} s/pass", file=sys.stderr, flush=True)
+            if load and kernel in ("auto", "numpy"):
+                r = _run_worker(["method", info["npz"], "angle", "1", str(repeat), "0", str(load)], "numpy")
+                results[("angle", True, "load", "numpy")] = r
             lap = results[("laplacian", True)].get("pass_s")
             floor = results[("laplacian", False)].get("bincount_pass_s")
-            for (method, guard), r in results.items():
-                row = {"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"], "method": method,
-                       "guard": guard}
+            for (method, guard, *loaded), r in results.items():
+                row = {"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"],
+                       "method": f"{method} (loaded)" if loaded else method, "guard": guard}
                 row.update({k: v for k, v in r.items() if k != "passes_s"})
                 if lap and "pass_s" in r:
                     row["ratio_to_laplacian"] = r["pass_s"] / lap
@@ -325,12 +433,13 @@ def run(sizes: dict, repeat: int, cli: bool, tmp: Path, slow_repeat: int | None 
 def _fmt(v, spec):
     if isinstance(v, (int, float)) and not isinstance(v, bool):
         return format(v, spec)
-    return "-".rjust(int(spec.split(".")[0]))
+    return "-".rjust(int(spec.split(".")[0].rstrip("dfs")))
 
 
 def table(rows: list[dict]) -> str:
-    head = (f"{'mesh':>9} {'cells':>9} {'method':<22} {'guard':<5} {'kernel':<6} {'setup s':>8} {'jit s':>6} "
-            f"{'s/pass':>8} {'x lap':>6} {'x bincnt':>8} {'e2e s':>7} {'x meshio':>8} {'RSS MB':>7}")
+    head = (f"{'mesh':>9} {'cells':>9} {'method':<22} {'guard':<5} {'kernel':<6} {'thr':>3} {'load':>4} "
+            f"{'setup s':>8} {'jit s':>6} "
+            f"{'s/pass':>8} {'cpu s':>6} {'x lap':>6} {'x bincnt':>8} {'e2e s':>7} {'x meshio':>8} {'RSS MB':>7}")
     lines = [head, "-" * len(head)]
     for r in rows:
         guard = "" if r.get("guard") is None else ("on" if r["guard"] else "off")
@@ -339,8 +448,10 @@ def table(rows: list[dict]) -> str:
             lines.append(f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<22} {guard:<5} {kernel:<6} error: {r['error']}")
             continue
         lines.append(
-            f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<22} {guard:<5} {kernel:<6} {_fmt(r.get('setup_s'), '8.2f')} "
-            f"{_fmt(r.get('jit_s'), '6.2f')} {_fmt(r.get('pass_s'), '8.3f')} {_fmt(r.get('ratio_to_laplacian'), '6.2f')} "
+            f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<22} {guard:<5} {kernel:<6} {_fmt(r.get('threads'), '3d')} "
+            f"{_fmt(r.get('load'), '4d')} {_fmt(r.get('setup_s'), '8.2f')} "
+            f"{_fmt(r.get('jit_s'), '6.2f')} {_fmt(r.get('pass_s'), '8.3f')} {_fmt(r.get('pass_cpu_s'), '6.3f')} "
+            f"{_fmt(r.get('ratio_to_laplacian'), '6.2f')} "
             f"{_fmt(r.get('ratio_to_bincount'), '8.1f')} {_fmt(r.get('e2e_s'), '7.2f')} "
             f"{_fmt(r.get('ratio_to_meshio'), '8.2f')} {_fmt(r.get('peak_rss_mb'), '7.0f')}"
         )
@@ -367,6 +478,25 @@ def stage_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def cold_table(rows: list[dict]) -> str:
+    """Cold (empty kernel cache) and warm first runs: the library's first and second pass, the CLI."""
+    head = (f"{'mesh':>9} {'case':<20} {'kernel':<6} {'pass1 s':>8} {'pass2 s':>8} {'compile s':>9} {'load s':>7} "
+            f"{'e2e s':>7} {'CLI compile_s':>13} {'RSS MB':>7}")
+    lines = ["cold = empty kernel cache directory, warm = the same directory filled by the cold run",
+             head, "-" * len(head)]
+    for r in rows:
+        if "state" not in r:
+            continue
+        if "error" in r:
+            lines.append(f"{r['mesh']:>9} {r['method']:<20} error: {r['error']}")
+            continue
+        lines.append(f"{r['mesh']:>9} {r['method']:<20} {r.get('kernel', ''):<6} {_fmt(r.get('pass1_s'), '8.3f')} "
+                     f"{_fmt(r.get('pass2_s'), '8.3f')} {_fmt(r.get('compile_s') if 'pass1_s' in r else None, '9.2f')} "
+                     f"{_fmt(r.get('load_s'), '7.2f')} {_fmt(r.get('e2e_s'), '7.2f')} "
+                     f"{_fmt(r.get('compile_s') if 'e2e_s' in r else None, '13.2f')} {_fmt(r.get('peak_rss_mb'), '7.0f')}")
+    return "\n".join(lines)
+
+
 def _numba_version() -> str | None:
     try:
         import numba
@@ -380,8 +510,13 @@ def main(argv: list[str] | None = None) -> int:
     if argv[:1] == ["--worker"]:
         kind, *rest = argv[1:]
         if kind == "method":
-            npz, method, guard, rep = rest
-            out = worker_method(npz, method, bool(int(guard)), int(rep))
+            npz, method, guard, rep, *more = rest
+            out = worker_method(npz, method, bool(int(guard)), int(rep), *map(int, more))
+        elif kind == "first":
+            out = worker_first(*rest)
+        elif kind == "inputs":
+            name, mesh_kind, n_cells, tmp = rest
+            out = _write_inputs(name, mesh_kind, int(n_cells), Path(tmp))
         elif kind == "stages":
             out = worker_stages(*rest)
         else:
@@ -399,10 +534,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tiny", action="store_true", help="tiny meshes, 2 passes (for the test suite)")
     ap.add_argument("--kernels", default="auto",
                     help="comma-separated ANGLESMOOTH_KERNEL values to run every method with (auto, numpy, numba)")
+    ap.add_argument("--load", type=int, default=None, metavar="N",
+                    help="busy-loop processes competing with the loaded cases (default: one per core; 0: none)")
+    ap.add_argument("--cold-size", default="200k", metavar="SIZE",
+                    help="mesh of the cold / warm first-run cases (a size name, or 'none')")
     ap.add_argument("--json", metavar="PATH", help="also write the rows as JSON")
     args = ap.parse_args(argv)
+    load = (os.cpu_count() or 1) if args.load is None else args.load
+    cold = None if args.cold_size == "none" else args.cold_size
     if args.tiny:
-        sizes, repeat, args.e2e_repeat = TINY, 2, 1
+        sizes, repeat, args.e2e_repeat, load = TINY, 2, 1, min(load, 1)
+        cold = "tiny" if cold else None
     else:
         known = {**SIZES, **EXTRA_SIZES}
         unknown = [s for s in args.sizes.split(",") if s not in known]
@@ -413,16 +555,24 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="anglesmooth-bench-") as tmp:
         rows = run(sizes, repeat, cli, Path(tmp), args.slow_repeat, tuple(args.kernels.split(",")),
-                   args.e2e_repeat)
-    print(table([r for r in rows if r["method"] != "stages"]))
+                   args.e2e_repeat, load)
+        if cold:
+            kind, n_cells = {**SIZES, **EXTRA_SIZES, **TINY}[cold]
+            print(f"# cold / warm first run: {cold}", file=sys.stderr, flush=True)
+            rows += run_cold(cold, kind, n_cells, Path(tmp), cli)
+    print(table([r for r in rows if r["method"] != "stages" and "state" not in r]))
     if any(r["method"] == "stages" for r in rows):
         print()
         print(stage_table(rows))
+    if any("state" in r for r in rows):
+        print()
+        print(cold_table(rows))
     meta = {
         "python": sys.version.split()[0],
         "numpy": np.__version__,
         "numba": _numba_version(),
         "cpus": os.cpu_count(),
+        "load": load,
         "repeat": repeat,
         "e2e_repeat": args.e2e_repeat,
         "wall_s": time.perf_counter() - t0,

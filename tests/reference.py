@@ -131,13 +131,15 @@ def _with(p, i, x):
     return q
 
 
-def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20.0):
+def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20.0, accept_above_quad=20.0):
     """One pass of ``method`` in the topology's colour order, node by node.
 
     For ``angle`` with ``guard`` this is the robust candidate selection (the
-    angle position when it is good and no worse than staying, else the best of
-    five candidates) without the local optimization of the worst nodes
-    (``opt_iterations=0``).
+    angle position when its local quality is at least ``accept_above`` degrees
+    -- ``accept_above_quad`` for a node of a quad -- whether or not staying
+    would score higher, else the best of five candidates, staying included;
+    where every candidate but staying is invalid, the guarded Laplacian move)
+    without the local optimization of the worst nodes (``opt_iterations=0``).
     """
     p = [list(map(float, x)) for x in points]
     cells = cells_of(topo)
@@ -166,13 +168,23 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
             if not guard:
                 p[i] = ang
                 continue
-            q_ang, q_cur = local_min_angle(_with(p, i, ang), inc[i]), local_min_angle(p, inc[i])
-            if q_ang >= q_cur and q_ang >= math.radians(accept_above):
+            q_ang = local_min_angle(_with(p, i, ang), inc[i])
+            has_quad = any(len(c) == 4 for c in inc[i])
+            if q_ang >= math.radians(accept_above_quad if has_quad else accept_above):
                 p[i] = ang
                 continue
             cands = [ang, lap, [(ang[0] + lap[0]) / 2, (ang[1] + lap[1]) / 2], [(ang[0] + cur[0]) / 2, (ang[1] + cur[1]) / 2], cur]
             scores = [local_min_angle(_with(p, i, x), inc[i]) for x in cands]
             p[i] = cands[int(np.argmax(scores))]
+            if all(s < 0 for s in scores[:4]) and scores[4] >= 0:
+                # every move invalid (negative), staying valid (>= 0, a 0 deg corner included):
+                # the guarded Laplacian move, halved until valid, else stay
+                for k in range(halvings + 1):
+                    f = 0.5**k
+                    x = [cur[0] + f * (lap[0] - cur[0]), cur[1] + f * (lap[1] - cur[1])]
+                    if local_min_angle(_with(p, i, x), inc[i]) >= 0:
+                        p[i] = x
+                        break
         else:
             raise ValueError(method)
     return np.array(p)

@@ -193,6 +193,17 @@ def non_planar(z) -> Callable[[Path], Path]:
     return vtu(pts, [("triangle", T)])
 
 
+def linked(hard: bool) -> Callable[[Path], Path]:
+    """A valid input ``in.vtu`` and ``link.vtu``, a hard or symbolic link to it."""
+
+    def build(d: Path) -> Path:
+        inp = vtu(P3, [("triangle", T)])(d)
+        (os.link if hard else os.symlink)(inp.name if not hard else inp, d / "link.vtu")
+        return inp
+
+    return build
+
+
 def file_named(name: str, content: bytes = b"x") -> Callable[[Path], None]:
     def prepare(d: Path) -> None:
         (d / name).write_bytes(content)
@@ -232,7 +243,7 @@ def corpus() -> list[Case]:
     cases += [
         Case("unknown-ext", "unknown extension (.foo)", raw("in.foo", b"hello"), 3, "unknown file extension '.foo'"),
         Case("no-ext", "no extension", raw("in", b"hello"), 3, "unknown file extension '(none)'"),
-        Case("bad-input-format", "--input-format nonsense", raw("in.vtu", b"hello"), 3, "unknown format 'nonsense'",
+        Case("bad-input-format", "--input-format nonsense", raw("in.vtu", b"hello"), 2, "unknown format 'nonsense'",
              args=("--input-format", "nonsense")),
         Case("missing-input", "input file does not exist", lambda d: d / "missing.vtu", 3, "no such file"),
         Case("input-is-dir", "input is a directory", lambda d: (d / "dir.vtu").mkdir() or d / "dir.vtu", 3,
@@ -257,11 +268,11 @@ def corpus() -> list[Case]:
         Case("polygon5", "a pentagon (polygon with 5 sides)",
              vtu([[0, 0, 0], [1, 0, 0], [1.5, 1, 0], [0.5, 1.5, 0], [-0.5, 1, 0]], [("polygon", [[0, 1, 2, 3, 4]])]), 3,
              "unsupported cell type 'polygon'"),
-        Case("non-planar-tilted", "surface mesh on a tilted plane", non_planar(lambda p: 0.3 * p[:, 0]), 3,
-             "mesh is not planar"),
         Case("non-planar-bump", "surface mesh with one node lifted by 1e-3", non_planar(
             lambda p: np.where(np.arange(len(p)) == 12, 1e-3, 0.0)), 3, "mesh is not planar"),
         # accepted inputs
+        Case("tilted-plane", "surface mesh on a tilted plane (smoothed in its own plane)",
+             non_planar(lambda p: 0.3 * p[:, 0]), 0),
         Case("duplicate-unused", "a duplicate node that no cell uses (allowed: unused, fixed)", duplicate_unused(), 0),
         Case("duplicate-crack", "a duplicated node splitting the mesh along a slit (allowed: both sides fixed)",
              duplicate_crack(), 0),
@@ -291,6 +302,51 @@ def corpus() -> list[Case]:
              "unknown file extension '.qqq'", output="out.qqq"),
         Case("out-is-input", "output = input without --force", vtu(P3, [("triangle", T)]), 2,
              "pass --force or --in-place", output="{input}"),
+        # side outputs and the other output paths (issue 13): every output differs from every input and
+        # from each other (resolved path and inode), and is checked before any work
+        Case("out-hardlink-to-input", "OUTPUT is a hard link to the input, without --force", linked(True), 2,
+             "pass --force or --in-place", output="link.vtu"),
+        Case("out-symlink-to-input", "OUTPUT is a symlink to the input, without --force", linked(False), 2,
+             "pass --force or --in-place", output="link.vtu"),
+        Case("json-is-input", "--json names the input", vtu(P3, [("triangle", T)]), 2,
+             "is the same file as INPUT", args=("--json", "{input}")),
+        Case("json-hardlink-to-input", "--json names a hard link to the input", linked(True), 2,
+             "is the same file as INPUT", args=("--json", "{d}/link.vtu")),
+        Case("json-symlink-to-input", "--json names a symlink to the input", linked(False), 2,
+             "is the same file as INPUT", args=("--json", "{d}/link.vtu")),
+        Case("plot-is-input", "--plot names the input", vtu(P3, [("triangle", T)]), 2,
+             "is the same file as INPUT", args=("--plot", "{input}")),
+        Case("json-is-output", "--json names OUTPUT", vtu(P3, [("triangle", T)]), 2, "are the same file",
+             args=("--json", "{d}/out.vtu")),
+        Case("json-is-plot", "--json and --plot name the same file", vtu(P3, [("triangle", T)]), 2,
+             "are the same file", args=("--json", "{d}/r.png", "--plot", "{d}/r.png")),
+        Case("json-is-fix-nodes", "--json names the --fix-nodes file", vtu(P3, [("triangle", T)]), 2,
+             "is the same file as --fix-nodes", args=("--fix-nodes", "{d}/fix.txt", "--json", "{d}/fix.txt"),
+             prepare=file_named("fix.txt", b"0 1\n")),
+        Case("json-is-gate-file", "--json names the --gate-file", vtu(P3, [("triangle", T)]), 2,
+             "is the same file as --gate-file", args=("--gate-file", "{d}/g.toml", "--json", "{d}/g.toml"),
+             prepare=file_named("g.toml", b"min_angle = 1\n")),
+        Case("json-missing-dir", "--json in a missing directory", vtu(P3, [("triangle", T)]), 3,
+             "cannot write JSON report", args=("--json", "{d}/nodir/r.json")),
+        Case("json-in-sys", "--json in /sys", vtu(P3, [("triangle", T)]), 3,
+             "cannot write JSON report '/sys/anglesmooth-r.json'", args=("--json", "/sys/anglesmooth-r.json")),
+        Case("json-is-dir", "--json names a directory", vtu(P3, [("triangle", T)]), 3, "it is a directory",
+             args=("--json", "{d}/adir"), prepare=lambda d: (d / "adir").mkdir()),
+        Case("plot-missing-dir", "--plot in a missing directory (found before the mesh is written)",
+             vtu(P3, [("triangle", T)]), 3, "cannot write plot", args=("--plot", "{d}/nodir/p.png")),
+        Case("out-dev-full", "OUTPUT /dev/full (written into, stays a device)", vtu(P3, [("triangle", T)]), 3,
+             "No space left on device", output="/dev/full", args=("--output-format", "vtu")),
+        Case("gate-file-gates-not-table", "gate file `[tool.anglesmooth] gates = 5`", vtu(P3, [("triangle", T)]), 2,
+             "gates must be a table", args=("--gate-file", "{d}/g.toml"),
+             prepare=file_named("g.toml", b"[tool.anglesmooth]\ngates = 5\n")),
+        Case("gate-file-tool-not-table", "gate file `tool = {anglesmooth = 3}`", vtu(P3, [("triangle", T)]), 2,
+             "[tool.anglesmooth] must be a table", args=("--gate-file", "{d}/g.toml"),
+             prepare=file_named("g.toml", b"tool = {anglesmooth = 3}\n")),
+        Case("fix-nodes-beyond-int64", "--fix-nodes file holding 100000000000000000000000", vtu(P3, [("triangle", T)]),
+             2, "--fix-nodes: node 100000000000000000000000", args=("--fix-nodes", "{d}/fix.txt"),
+             prepare=file_named("fix.txt", b"100000000000000000000000\n")),
+        Case("numba-threads-0", "NUMBA_NUM_THREADS=0 in the environment", vtu(P3, [("triangle", T)]), 2,
+             "NUMBA_NUM_THREADS='0' must be a positive integer", extra={"env": {"NUMBA_NUM_THREADS": "0"}}),
     ]
     return cases
 
@@ -333,10 +389,11 @@ def setup_case(case: Case, d: Path) -> tuple[Path, Path]:
 def run_case(case: Case, d: Path, subprocess_: bool = False, env: dict | None = None) -> Outcome:
     inp, out = setup_case(case, d)
     before = snapshot(d)
-    argv = [str(inp), str(out), *case.args]
+    argv = [str(inp), str(out), *(a.replace("{d}", str(d)).replace("{input}", str(inp)) for a in case.args)]
+    env = {**case.extra.get("env", {}), **(env or {})} or None
     if subprocess_:
         proc = subprocess.run([sys.executable, "-m", "anglesmooth", *argv], capture_output=True, timeout=120,
-                              cwd=d)
+                              cwd=d, env={**os.environ, "PYTHONPATH": str(HERE.parent / "src"), **(env or {})})
         assert proc.stdout == b""
         code, stderr = proc.returncode, proc.stderr.decode()
     else:
@@ -361,7 +418,9 @@ def check_outcome(case: Case, o: Outcome) -> None:
         line = error_line(o.stderr)
         assert case.needle in line, line
         assert o.after == o.before, "files appeared, vanished or changed"
-        if not o.output.is_relative_to(o.input.parent) and o.output != o.input:
+        if str(o.output).startswith("/dev/"):
+            assert o.output.is_char_device()  # written into, never replaced
+        elif not o.output.is_relative_to(o.input.parent) and o.output != o.input:
             assert not o.output.exists()
     else:
         assert case.needle in o.stderr
@@ -375,7 +434,8 @@ def test_bad_input(case, tmp_path):
     check_outcome(case, run_case(case, tmp_path))
 
 
-SUBPROCESS_IDS = ["empty-msh", "truncated-msh41-binary-50", "nan", "tetra", "out-under-file", "tangled"]
+SUBPROCESS_IDS = ["empty-msh", "truncated-msh41-binary-50", "nan", "tetra", "out-under-file", "tangled",
+                  "json-symlink-to-input", "out-dev-full", "numba-threads-0"]
 
 
 @pytest.mark.parametrize("case_id", SUBPROCESS_IDS)
@@ -528,8 +588,11 @@ def test_io_write_parent_is_a_file(tmp_path):
 
 def test_io_read_reports_the_reader_reason(tmp_path):
     """meshio.read hides its readers' errors behind sys.exit(1); io.read keeps them."""
-    path = truncated("vtk", 0.5)(tmp_path)
-    with pytest.raises(MeshReadError, match=r"not a valid vtk file \(ReadError: Expected newline\)"):
+    path = truncated("xdmf", 0.5)(tmp_path)
+    with pytest.raises(MeshReadError, match=r"not a valid xdmf file \(ParseError: "):  # XDMF with HDF5 data: one line
+        asio.read(path)
+    path = truncated("vtk", 0.5)(tmp_path)  # refused before meshio allocates (see _guard)
+    with pytest.raises(MeshReadError, match=r"not a valid vtk file \(SizeLimitError: the file declares \d+ values"):
         asio.read(path)
     path = truncated("vtu", 0.5)(tmp_path)
     with pytest.raises(MeshReadError, match=r"not a valid vtu file \(truncated or corrupt\)"):
@@ -566,7 +629,8 @@ def render(rows) -> str:
         "# Bad inputs: exit code and message",
         "",
         "Generated by `python tests/test_bad_input.py` from the corpus in `tests/test_bad_input.py` (meshio "
-        f"{meshio.__version__}); every case runs `anglesmooth INPUT out.vtu` in a fresh directory. Exit codes: "
+        f"{meshio.__version__}); every case runs `anglesmooth INPUT out.vtu` (or the OUTPUT and options the case "
+        "names) in a fresh directory. Exit codes: "
         "0 accepted, 2 usage error, 3 unreadable / unsupported / invalid input or unwritable output. For every "
         "non-zero case the tests check: one stderr line, no traceback, no output or temporary file, input "
         "unchanged (sha256). Paths are shown relative to the case directory.",
@@ -604,6 +668,18 @@ NOTES = [
     "* **Out of memory** while reading, building the topology, smoothing, measuring or writing: exit 3 with one "
     "line (`too large to read: out of memory` / `out of memory ...`), tested by monkeypatching; an MSH header "
     "announcing 10^12 nodes gives exit 3 as well.",
+    "* **Output paths** (issue 13): OUTPUT, `--json` and `--plot` must each differ from every input (INPUT, "
+    "`--fix-nodes`, `--gate-file`) and from each other, compared by resolved path *and* inode, so a hard link "
+    "or a symlink to the input is the input (exit 2; OUTPUT may be the input with `--force` / `--in-place`). "
+    "Every output path is checked before the input is read (missing directory, a directory, not creatable: "
+    "exit 3), so a bad `--plot` path no longer leaves the mesh behind. A device such as `/dev/full` is written "
+    "into and stays a device (exit 3 when it is full). The cases that need a real process (closed stdin / "
+    "stdout, `/dev/full` as stdout, a FIFO, a socket, a device made with `mknod`, a slow non-blocking pipe, "
+    "`| head -c 100`, signals while plotting, SIGKILL) are in tests/test_output_safety.py.",
+    "* **Absurd counts** (a corrupt MSH 4.1 binary element count, `POINTS 300000000` in a 200-byte VTK file, an "
+    "HDF5 dataset declaring 9.6 GB in a tiny `.h5`) are refused before the reader allocates "
+    "(`SizeLimitError`, see `anglesmooth/_guard.py`), in bounded memory: the tests run them under a 1 GB "
+    "address-space limit.",
     "* Corruption that still parses (a flipped digit in a coordinate) cannot be detected: none of these formats "
     "has a checksum.",
 ]

@@ -159,6 +159,7 @@ def test_two_files_alone_still_mean_input_output(work, monkeypatch):
     (["in/a.msh", "-", "--output-dir", "o"], "'-'"),
     (["in/a.msh", "in/b.vtu", "--output-dir", "o", "--jobs", "x"], "number of processes"),
     (["empty", "--output-dir", "o"], "no mesh files"),
+    (["in/a.msh", "in/b.vtu", "--output-dir", "o", "--threads", "1"], "--threads works with one INPUT only"),
 ])
 def test_usage_errors_write_nothing(work, monkeypatch, args, needle):
     monkeypatch.chdir(work)

@@ -35,6 +35,18 @@ def test_bench_speed_tiny(tmp_path):
         for kernel in ("numpy", "numba"):  # every method ran with both kernels
             assert ("tiny", name, True, kernel) in methods and ("tinyquad", name, True, kernel) in methods
     assert ("tiny", "angle", False, "numba") in methods
+    assert ("tiny", "angle (loaded)", True, "numba") in methods and ("tiny", "angle (loaded)", True, "numpy") in methods
+    loaded = [r for r in rows if r["method"] == "angle (loaded)"]
+    assert {r["load"] for r in loaded} == {1} and {r["threads"] for r in loaded if r["kernel"] == "numba"} == {1}
+    # cold / warm first runs (an empty, then the filled kernel cache directory): the library and the CLI
+    states = {(r["method"], r["state"]): r for r in rows if "state" in r}
+    assert set(states) == {("first pass (cold)", "cold"), ("first pass (warm)", "warm"), ("CLI (cold cache)", "cold"),
+                           ("CLI (warm cache)", "warm")}
+    for r in states.values():
+        assert "error" not in r and r.get("returncode", 0) == 0, r
+        assert r["compile_s"] >= 0 and r["peak_rss_mb"] > 0
+    assert "cold = empty kernel cache directory" in res.stdout
+    rows = [r for r in rows if "state" not in r]
     timed = [r for r in rows if "kernel" in r and r["method"] != "stages"]
     for r in timed:
         assert "error" not in r, r

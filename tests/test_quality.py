@@ -289,6 +289,21 @@ def test_convex_quads_match_vtk(seed):
     np.testing.assert_allclose(q.quad_aspect_ratio(p, topo), vtk_quality(pts, qd, "AspectRatio"), rtol=1e-9)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_quad_condition_matches_vtk_and_sees_a_flattened_quad(seed):
+    rng = np.random.default_rng(seed)
+    pts, quads = quad_grid(rng, jitter=0.3)
+    p, topo = topo_of(pts, quads=quads[:, ::-1])
+    np.testing.assert_allclose(q.quad_condition(p, topo), vtk_quality(pts, topo.quad, "Condition"), rtol=1e-9)
+    # a boundary-layer-like quad flattened to 1e-7 keeps its right angles, not its condition
+    thin = np.array([[0, 0], [1, 0], [1, 1e-7], [0, 1e-7]], float)
+    pt, tt = topo_of(thin, quads=[[0, 1, 2, 3]])
+    s = q.summarize(pt, tt)
+    assert s["min_angle"] == pytest.approx(90.0) and s["quad_scaled_jacobian"]["min"] == pytest.approx(1.0)
+    assert s["quad_condition"]["max"] == pytest.approx(vtk_quality(thin, tt.quad, "Condition")[0], rel=1e-9)
+    assert s["quad_condition"]["max"] > 1e6 and s["edge_ratio"] == pytest.approx(1e7) and s["min_edge"] == pytest.approx(1e-7)
+
+
 def test_nonconvex_quads_vs_vtk():
     """Documented deviations on non-convex quads.
 

@@ -250,6 +250,29 @@ def test_vectorized_matches_per_node_reference(method, guard, gen_name):
     np.testing.assert_allclose(p, q, rtol=0, atol=1e-9 * np.ptp(mesh.points))
 
 
+@pytest.mark.parametrize("free_corners", [((2.45, 0.02), (2.55, 0.021)), ((2.4, 0.03), (2.6, 0.02))])
+def test_stuck_nodes_take_the_guarded_laplacian_move_as_the_reference_does(free_corners, monkeypatch):
+    """A quad flattened onto the boundary with its free corners almost touching: every full or half
+    move of either is invalid, so the default takes the halved Laplacian move (stage 3)."""
+    import anglesmooth.smoothers.angle as angle_mod
+
+    m = generate.structured_quads(5, 4)
+    p = m.points.copy()
+    for (x, y), new in zip(((2, 1), (3, 1)), free_corners):
+        p[int(np.flatnonzero(np.hypot(p[:, 0] - x, p[:, 1] - y) < 1e-9)[0])] = new
+    mesh = m.with_points(p)
+    topo = build_topology(mesh)
+    calls = []
+    real = angle_mod.first_valid
+    monkeypatch.setattr(angle_mod, "first_valid", lambda *a, **k: calls.append(1) or real(*a, **k))
+    q = r = mesh.points
+    for _ in range(3):
+        q = get_smoother("angle").step(q, topo, opt_iterations=0).points
+        r = reference_pass(r, topo, "angle")
+    assert calls  # stage 3 was reached
+    np.testing.assert_allclose(q, r, rtol=0, atol=1e-9 * np.ptp(mesh.points))
+
+
 def test_jacobi_angle_matches_reference_single_node():
     """With one free node, colour and Jacobi orders coincide with the reference."""
     mesh = generate.five_element_polygon(center=(0.3, 0.2))
@@ -257,3 +280,146 @@ def test_jacobi_angle_matches_reference_single_node():
     for order in ("colour", "jacobi"):
         p = get_smoother("angle").step(mesh.points, topo, guard=False, order=order).points
         np.testing.assert_allclose(p, reference_pass(mesh.points, topo, "angle", guard=False), atol=1e-12)
+
+
+# --------------------------------------------------------------------------- traps, plateaus, boundary layers
+
+
+def valid_jitter(mesh: Mesh2D, amount: float, seed: int) -> Mesh2D:
+    """Free nodes moved by up to ``amount`` x their mean edge length; moves halved where a cell became invalid."""
+    from anglesmooth.quality import invalid_cells
+
+    topo = build_topology(mesh)
+    p0 = mesh.points
+    e = topo.edges
+    length = np.hypot(*(p0[e[:, 0]] - p0[e[:, 1]]).T)
+    n = len(p0)
+    h = (np.bincount(e[:, 0], length, n) + np.bincount(e[:, 1], length, n)) / np.maximum(np.bincount(e.ravel(), minlength=n), 1)
+    d = np.random.default_rng(seed).uniform(-1, 1, (n, 2)) * (amount * h)[:, None]
+    d[topo.fixed] = 0
+    for _ in range(40):
+        bad = invalid_cells(p0 + d, topo)
+        if not bad.any():
+            break
+        nodes = np.concatenate([topo.tri[bad[: topo.n_tri]].ravel(), topo.quad[bad[topo.n_tri :]].ravel()])
+        d[nodes] *= 0.5
+    assert not invalid_cells(p0 + d, topo).any()
+    return mesh.with_points(p0 + d)
+
+
+@pytest.mark.parametrize("seed", [175, 270, 273, 288])
+def test_default_angle_is_not_stuck_on_a_plateau_of_a_disturbed_quad_grid(seed):
+    """Accepting the angle position only when it is no worse than staying (the former default) stopped
+    these grids at 48-59 deg: a sheared quad gets better only through positions that are locally worse
+    for a moment.  Laplacian returns them to the square grid; the default must too."""
+    mesh = valid_jitter(generate.structured_quads(7, 7), 1.2, seed)
+    topo = build_topology(mesh)
+    lap = summarize(smooth(mesh, "laplacian", 20, topology=topo).points, topo)
+    ang = summarize(smooth(mesh, "angle", 20, topology=topo).points, topo)
+    assert lap["min_angle"] > 89
+    assert ang["min_angle"] > 85 and ang["max_angle"] < 95 and ang["nonconvex_quads"] == 0
+
+
+def test_flat_quad_with_two_fixed_corners_is_repaired():
+    """A quad flattened onto the boundary (angles 7, 12, 165, 176 deg; its two boundary corners fixed):
+    moving either free corner alone first makes the other corner's angle worse, which traps a rule that
+    never lets a local minimum decrease (smart Laplacian stays at 7 deg).  Laplacian repairs it; so must
+    the default."""
+    m = generate.structured_quads(5, 4)
+    p = m.points.copy()
+    q = int(np.flatnonzero(np.hypot(p[:, 0] - 2, p[:, 1] - 1) < 1e-9)[0])
+    r = int(np.flatnonzero(np.hypot(p[:, 0] - 3, p[:, 1] - 1) < 1e-9)[0])
+    p[q] = [2.25, 0.25 * np.tan(np.radians(7))]
+    p[r] = [2.75, 0.25 * np.tan(np.radians(12))]
+    mesh = m.with_points(p)
+    topo = build_topology(mesh)
+    before = summarize(p, topo)
+    assert before["min_angle"] == pytest.approx(7.0) and before["max_angle"] > 175
+    assert topo.fixed[[q, r]].tolist() == [False, False]
+    stuck = summarize(smooth(mesh, "smart-laplacian", 10, topology=topo).points, topo)
+    lap = summarize(smooth(mesh, "laplacian", 10, topology=topo).points, topo)
+    ang = summarize(smooth(mesh, "angle", 10, topology=topo).points, topo)
+    assert stuck["min_angle"] < 8  # the trap is real
+    assert lap["min_angle"] > 85
+    assert ang["min_angle"] > 80 and ang["max_angle"] < 100
+
+
+def boundary_layer_mesh() -> Mesh2D:
+    """A gmsh BoundaryLayer mesh (Quads=1): 12 layers of quads 0.005 -> 0.07 thick on the bottom of a
+    10 x 4 rectangle, triangles elsewhere."""
+    gmsh = pytest.importorskip("gmsh")
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("bl")
+        gmsh.model.occ.addRectangle(0, 0, 0, 10, 4)
+        gmsh.model.occ.synchronize()
+        bottom = [c for _, c in gmsh.model.getEntities(1) if abs(gmsh.model.occ.getCenterOfMass(1, c)[1]) < 1e-9]
+        f = gmsh.model.mesh.field.add("BoundaryLayer")
+        gmsh.model.mesh.field.setNumbers(f, "CurvesList", bottom)
+        for name, value in (("Size", 0.005), ("Ratio", 1.3), ("Thickness", 0.6), ("Quads", 1)):
+            gmsh.model.mesh.field.setNumber(f, name, value)
+        gmsh.model.mesh.field.setAsBoundaryLayer(f)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", 0.5)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+        gmsh.model.mesh.generate(2)
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        index = np.full(int(tags.max()) + 1, -1)
+        index[tags.astype(int)] = np.arange(len(tags))
+        cells = {3: [], 4: []}
+        for etype, _, conn in zip(*gmsh.model.mesh.getElements(2)):
+            k = {2: 3, 3: 4}[int(etype)]
+            cells[k].append(index[conn.astype(int)].reshape(-1, k))
+    finally:
+        gmsh.finalize()
+    pts = xyz.reshape(-1, 3)[:, :2].copy()
+    tri = np.concatenate(cells[3]) if cells[3] else np.zeros((0, 3), int)
+    quad = np.concatenate(cells[4])
+    used = np.unique(np.concatenate([tri.ravel(), quad.ravel()]))
+    remap = np.full(len(pts), -1)
+    remap[used] = np.arange(len(used))
+    return Mesh2D.from_arrays(pts[used], triangles=remap[tri], quads=remap[quad])
+
+
+@pytest.fixture(scope="module")
+def bl_mesh():
+    return boundary_layer_mesh()
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_guarded_methods_keep_boundary_layer_cells_from_collapsing(method, bl_mesh):
+    """Every guarded method refuses to shrink an anisotropic input cell below 0.25 of its input area or
+    an edge of it below 0.25 of its input length; without that floor ``optimization`` flattens the
+    thinnest quads (measured: an edge to 5e-4 of its length, area ratio 217 -> 6,907) while their angles
+    stay good."""
+    from anglesmooth.quality import cell_areas
+    from anglesmooth.smoothers._floors import FLOOR, input_floors
+
+    mesh = bl_mesh
+    topo = build_topology(mesh)
+    p0 = mesh.points
+    assert topo.n_quad > 100 and input_floors(p0, topo).active
+    e = topo.edges
+
+    def edges(p):
+        return np.hypot(*(p[e[:, 0]] - p[e[:, 1]]).T)
+
+    cells = [c for c in topo.tri] + [c for c in topo.quad]
+    lengths = [np.hypot(*(p0[np.roll(c, -1)] - p0[c]).T) for c in cells]
+    aniso = np.array([ln.max() >= 4 * ln.min() for ln in lengths])
+    thin_edge = np.zeros(len(e), bool)  # edges of anisotropic cells
+    key = {tuple(sorted(x)): k for k, x in enumerate(e.tolist())}
+    for c, a in zip(cells, aniso):
+        if a:
+            for u, v in zip(c, np.roll(c, -1)):
+                thin_edge[key[tuple(sorted((int(u), int(v))))]] = True
+    a0, l0 = np.abs(cell_areas(p0, topo)), edges(p0)
+    p = smooth(mesh, method, 10, topology=topo).points
+    s = summarize(p, topo)
+    assert s["inverted"] == 0 and s["nonconvex_quads"] == 0
+    assert (np.abs(cell_areas(p, topo))[aniso] >= FLOOR * a0[aniso] * (1 - 1e-9)).all()
+    assert (edges(p)[thin_edge] >= FLOOR * l0[thin_edge] * (1 - 1e-9)).all()
+    if method == "optimization":  # the floor is what holds them
+        free = smooth(mesh, method, 10, topology=topo, floors=None).points
+        assert (edges(free)[thin_edge] / l0[thin_edge]).min() < 0.01
+        assert summarize(free, topo)["edge_ratio"] > 10 * s["edge_ratio"]

@@ -140,11 +140,13 @@ Methods (all from `anglesmooth.smooth`, boundary nodes fixed):
   ring node onto the bisector — or the 3:2 split between a quad and a triangle corner — and average; quads also use
   their diagonal node at 45°), with no validity check.
 * **Angle-based, robust default** — `guard=True` (the library default): per node, the angle target where its
-  cells' smallest angle there is at least 20° and no worse than staying; otherwise the best of five candidates
-  (angle target, Laplacian target, their midpoint, the half step, the current position) by local minimum angle
-  (quads: `min(angle, 180° - angle)`) that inverts nothing; then a few steps of area-constrained local
-  max-min-angle optimization for the worst ~5 % of nodes (if below 40°). This is a *hybrid* that
-  goes beyond the paper; it is shown to say what a user gets by default.
+  cells' smallest angle there is at least 20° (whether or not staying would score higher; nodes whose input cells
+  were all well shaped only where it is no worse than staying); otherwise the best of five candidates (angle
+  target, Laplacian target, their midpoint, the half step, the current position) by local minimum angle (quads:
+  `min(angle, 180° - angle)`) that inverts nothing, or the halved Laplacian move where every move is invalid; then
+  a few steps of area-constrained local max-min-angle optimization for the worst ~5 % of nodes (if below two
+  thirds of the ideal angle: 40°, 60° at quad nodes). This is a *hybrid* that goes beyond the paper; it is shown
+  to say what a user gets by default.
 * **Optimization-based** — local max-min-angle compass search per node (10 iterations per pass), the quality
   reference; not in the paper's tables.
 
@@ -218,8 +220,9 @@ def _discuss12(res, kind, num):
         lines.append(
             f"* Size uniformity: the literal rule's max/min area ratio ({M('angle-literal', 'area_ratio'):.1f}) is "
             f"below Laplacian's ({M('laplacian', 'area_ratio'):.1f}) on {_count(r)} seeds, as the paper says "
-            f"(17 vs 86). The robust default's ratio is {M('angle-default', 'area_ratio'):.1f}: it optimizes angles, "
-            "not sizes, so it gives back part of the literal rule's size uniformity for a much better minimum angle."
+            f"(17 vs 86). The robust default's ratio is {M('angle-default', 'area_ratio'):.1f}: most of its nodes "
+            "take the literal rule's position, which keeps most of that size uniformity; the optimization of the "
+            "worst nodes, which buys the much better minimum angle, gives back the rest."
         )
         jl, jc = M("angle-literal-jacobi", "min_angle"), M("angle-literal", "min_angle")
         lines.append(

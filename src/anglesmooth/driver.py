@@ -19,6 +19,7 @@ import numpy as np
 from .mesh import Mesh2D, place_high_order
 from .quality import invalid_cells
 from .smoothers import get_smoother
+from .smoothers._floors import input_floors
 from .topology import Topology, build_topology
 
 __all__ = ["SmoothResult", "smooth"]
@@ -45,7 +46,10 @@ class SmoothResult:
         Nodes put back by the final whole-mesh validity check (Jacobi order only;
         the per-colour guard is exact, so this is 0 in colour order).
     elapsed_s : float
-        Wall time of the passes (topology included when it was built here).
+        Wall time of the passes (topology included when it was built here), without ``compile_s``.
+    compile_s : float
+        Wall time spent compiling the compiled kernels (or loading them from numba's cache) during
+        the passes: paid once per process, and the compiling only on the first run ever.
     """
 
     mesh: Mesh2D
@@ -56,10 +60,15 @@ class SmoothResult:
     rejected: int = 0
     reverted: int = 0
     elapsed_s: float = 0.0
+    compile_s: float = 0.0
 
     @property
     def points(self) -> np.ndarray:
         return self.mesh.points
+
+    def to_meshio(self):
+        """The smoothed mesh as a ``meshio.Mesh``, everything of the input kept (see :func:`anglesmooth.io.to_meshio`)."""
+        return self.mesh.to_meshio()
 
 
 def _max_move(old: np.ndarray, new: np.ndarray) -> float:
@@ -88,7 +97,7 @@ def smooth(
 
     Parameters
     ----------
-    mesh : Mesh2D
+    mesh : Mesh2D or meshio.Mesh
     method : str
         A name in :data:`anglesmooth.SMOOTHERS`.
     passes : int
@@ -97,7 +106,10 @@ def smooth(
         Stop once a pass moves no node by more than ``tol`` times the mean edge length.
     guard : bool
         Refuse moves that would invert or degenerate a cell or make a quad
-        non-convex (default).  ``False`` gives the methods' textbook form.
+        non-convex, or shrink an anisotropic input cell (boundary layer)
+        below a fixed fraction of its input area or edge length (default; see
+        :func:`anglesmooth.smoothers._floors.input_floors`).  ``False`` gives
+        the methods' textbook form.
     order : {"colour", "jacobi"}
         Gauss-Seidel over colour classes (default) or all nodes at once.
     fixed : bool mask or index array, optional
@@ -109,10 +121,15 @@ def smooth(
     **options
         Passed to the method's step function.
     """
+    if not isinstance(mesh, Mesh2D):  # a meshio.Mesh
+        from .io import as_mesh2d
+
+        mesh = as_mesh2d(mesh)
     smoother = get_smoother(method)
     if passes < 0:
         raise ValueError("passes must be >= 0")
     t0 = time.perf_counter()
+    jit0 = _jit_seconds()
     topo = topology if topology is not None else build_topology(mesh, fixed)
     pts = np.array(mesh.points, dtype=np.float64, copy=True)
     e0, e1 = topo.edges[:, 0], topo.edges[:, 1]
@@ -125,6 +142,9 @@ def smooth(
     displacements: list[float] = []
     rejected = reverted = 0
     done = 0
+    # the guard keeps the anisotropic (boundary-layer) cells of the input from collapsing
+    if guard and "floors" not in options:
+        options["floors"] = input_floors(pts, topo)
     for k in range(passes):
         new, rej = smoother.step(pts, topo, guard=guard, order=order, **options)
         if recheck:
@@ -140,6 +160,7 @@ def smooth(
         if tol is not None and disp <= tol:
             break
     pts = place_high_order(mesh, pts, topo.fixed)
+    jit = _jit_seconds() - jit0
     return SmoothResult(
         mesh=mesh.with_points(pts),
         topology=topo,
@@ -148,8 +169,16 @@ def smooth(
         displacements=displacements,
         rejected=rejected,
         reverted=reverted,
-        elapsed_s=time.perf_counter() - t0,
+        elapsed_s=time.perf_counter() - t0 - jit,
+        compile_s=jit,
     )
+
+
+def _jit_seconds() -> float:
+    from .smoothers import _fast
+
+    stats = _fast.jit_stats()
+    return stats["compile_s"] + stats["load_s"]
 
 
 def _revert_new_invalid(old: np.ndarray, new: np.ndarray, topo: Topology, bad_before: np.ndarray):

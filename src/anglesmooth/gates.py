@@ -241,8 +241,16 @@ def load_gate_file(path: str | Path) -> dict[str, float]:
         raise GateFileError(f"gate file '{path}' is not UTF-8 text") from None
     except ValueError as exc:  # tomllib.TOMLDecodeError
         raise GateFileError(f"gate file '{path}' is not valid TOML: {exc}") from None
-    table = data.get("tool", {}).get("anglesmooth", {}).get("gates") if isinstance(data.get("tool"), dict) else None
+    tool = data.get("tool")
+    tool = tool.get("anglesmooth") if isinstance(tool, dict) else None
+    if tool is not None and not isinstance(tool, dict):
+        raise GateFileError(f"gate file '{path}': [tool.anglesmooth] must be a table, got {tool!r}")
+    table = tool.get("gates") if tool is not None else None
+    if tool is not None and "gates" in tool and not isinstance(table, dict):
+        raise GateFileError(f"gate file '{path}': [tool.anglesmooth] gates must be a table, got {table!r}")
     if table is None:
+        if "gates" in data and not isinstance(data["gates"], dict):
+            raise GateFileError(f"gate file '{path}': gates must be a table, got {data['gates']!r}")
         table = data["gates"] if isinstance(data.get("gates"), dict) else data
     return validate_gates(table, f"gate file '{path}'")
 

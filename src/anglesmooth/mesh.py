@@ -64,9 +64,17 @@ class Mesh2D:
     groups : mapping str -> int64 array
         Node indices of each named group (physical groups, cell sets, point sets),
         for ``--fix-group``.
+    physical : mapping (dim, number) -> int64 array
+        Node indices of each gmsh physical group by dimension and number, named
+        or not (``--fix-group 11``, ``--fix-group 2:11``).
     source : object
         The object the mesh was read from (a ``meshio.Mesh``), kept opaque so
         that :func:`anglesmooth.io.write` can write everything back.
+    frame : PlaneFrame or None
+        The plane of a mesh read with three coordinates
+        (:class:`anglesmooth.plane.PlaneFrame`): ``points`` are coordinates in
+        that plane and :func:`anglesmooth.io.write` maps moved nodes back to 3D.
+        None: ``points`` are x, y.
     """
 
     points: np.ndarray
@@ -81,6 +89,8 @@ class Mesh2D:
     centres: np.ndarray = field(default_factory=lambda: np.zeros((0, 5), np.int64))
     groups: Mapping[str, np.ndarray] = field(default_factory=dict)
     source: Any = None
+    frame: Any = None
+    physical: Mapping[tuple[int, int], np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         pts = np.asarray(self.points, dtype=np.float64)
@@ -124,6 +134,8 @@ class Mesh2D:
         set_(self, "midside", _ro(np.asarray(self.midside, dtype=np.int64).reshape(-1, 3)))
         set_(self, "centres", _ro(np.asarray(self.centres, dtype=np.int64).reshape(-1, 5)))
         set_(self, "groups", {k: _ro(np.asarray(v, dtype=np.int64).reshape(-1)) for k, v in self.groups.items()})
+        set_(self, "physical", {(int(d), int(t)): _ro(np.asarray(v, dtype=np.int64).reshape(-1))
+                                for (d, t), v in self.physical.items()})
 
     @classmethod
     def from_arrays(cls, points, triangles=None, quads=None, **kwargs) -> Mesh2D:
@@ -141,6 +153,26 @@ class Mesh2D:
         """Number of 2D cells (triangles + quads)."""
         return int(self.triangles.shape[0] + self.quads.shape[0])
 
+    def points_3d(self, points: np.ndarray | None = None) -> np.ndarray:
+        """(N, 3) coordinates of ``points`` (default ``self.points``) mapped back through the plane frame.
+
+        >>> Mesh2D.from_arrays([[0, 0], [1, 0], [0, 1]], triangles=[[0, 1, 2]]).points_3d()[1].tolist()
+        [1.0, 0.0, 0.0]
+        """
+        pts = self.points if points is None else np.asarray(points, dtype=np.float64)
+        if self.frame is None:
+            return np.column_stack([pts, np.zeros(pts.shape[0])])
+        return self.frame.to_3d(pts)
+
+    def to_meshio(self, points: np.ndarray | None = None):
+        """A ``meshio.Mesh`` of this mesh (with ``points`` as its coordinates), everything of the source kept.
+
+        See :func:`anglesmooth.io.to_meshio`.
+        """
+        from .io import to_meshio
+
+        return to_meshio(self, points=points)
+
     def with_points(self, points: np.ndarray) -> Mesh2D:
         """Return a copy of this mesh with new (N, 2) coordinates."""
         from dataclasses import replace
@@ -151,25 +183,36 @@ class Mesh2D:
 def place_high_order(mesh: Mesh2D, points: np.ndarray, fixed: np.ndarray) -> np.ndarray:
     """Reposition second-order nodes after their corner nodes moved.
 
-    A mid-edge node is put at the midpoint of its edge unless both ends of the
-    edge are fixed (boundary and interface edges keep their, possibly curved,
-    shape).  A quad9 centre node is put at the bilinear centre of its quad (the
-    mean of the four corners) unless all four corners are fixed.
+    A mid-edge node is put at the midpoint of its edge when an end of the edge
+    moved (``points`` differs from ``mesh.points``) and not both ends are fixed
+    (boundary and interface edges keep their, possibly curved, shape).  A quad9
+    centre node is put at the bilinear centre of its quad (the mean of the four
+    corners) when a corner moved and not all four are fixed.  Nodes of edges and
+    cells whose corners did not move are left exactly as they are: ``passes=0``
+    returns every node bit-identical, and a curved interior edge stays curved
+    until smoothing moves one of its ends.
 
     >>> import numpy as np
     >>> m = Mesh2D.from_arrays([[0, 0], [2, 0], [0, 2], [1, 0.3]], triangles=[[0, 1, 2]],
     ...                        midside=[[3, 0, 1]])
-    >>> place_high_order(m, m.points, np.array([False, False, True, True]))[3].tolist()
-    [1.0, 0.0]
+    >>> fixed = np.array([False, False, True, True])
+    >>> place_high_order(m, m.points, fixed)[3].tolist()  # nothing moved: the curved edge stays
+    [1.0, 0.3]
+    >>> moved = m.points.copy(); moved[1] = [2.2, 0]
+    >>> place_high_order(m, moved, fixed)[3].tolist()
+    [1.1, 0.0]
     """
     out = np.array(points, dtype=np.float64, copy=True)
+    if not (mesh.midside.shape[0] or mesh.centres.shape[0]):
+        return out
+    moved = (out != mesh.points).any(axis=1)
     if mesh.midside.shape[0]:
         mid, a, b = mesh.midside.T
-        move = ~(fixed[a] & fixed[b])
+        move = ~(fixed[a] & fixed[b]) & (moved[a] | moved[b])
         out[mid[move]] = 0.5 * (out[a[move]] + out[b[move]])
     if mesh.centres.shape[0]:
         c = mesh.centres
-        move = ~fixed[c[:, 1:5]].all(axis=1)
+        move = ~fixed[c[:, 1:5]].all(axis=1) & moved[c[:, 1:5]].any(axis=1)
         corners = out[c[move, 1:5]]
         out[c[move, 0]] = corners.mean(axis=1)
     return out

@@ -1,34 +1,85 @@
 """Plots (optional extra ``anglesmooth[plot]``): matplotlib is imported only when a plot is made.
 
 * :func:`plot_smooth` - the mesh before and after, every cell coloured by its
-  minimum angle, with histograms of the corner angles and of the cell minimum
-  angles.
+  minimum angle, the worst cells marked, a zoom on the worst cell (before and
+  after), and log-scale histograms of the cell minimum and maximum angles.
 * :func:`plot_compare` - minimum angle and area ratio per pass for each method
   (the paper's Figure 13).
+* :func:`worst_cells`, :func:`zoom_window`, :func:`edge_widths`, :func:`draw_mesh` - which
+  cells the figure marks and zooms on, which edges it draws, and how it draws cells: from
+  :mod:`anglesmooth.meshplot`, re-exported here.
 
-Figures are built with ``matplotlib.figure.Figure`` (no pyplot, no global state,
-no display needed) and written atomically.
+Drawn so that the few bad cells of a large or graded mesh are found at a glance:
+
+* Cells are filled as triangles (quads split in two along the diagonal that
+  keeps both halves valid) with one colour each, in one rasterized renderer call
+  (Gouraud triangles with equal corner colours: no seams, no ``Path`` per cell),
+  which stays fast at a million cells.
+* Cell edges are drawn only where cells are at least :data:`EDGE_MIN_PX` pixels wide on
+  screen: none when the median cell is narrower (a 300k-cell mesh shows its colours, not
+  black noise), otherwise only between cells that wide, fading in up to
+  :data:`EDGE_FULL_PX` (a graded mesh shows the edges of its coarse part, and its
+  refined ring is not solid black).  The zoom panels show the edges.
+* The :data:`WORST_K` cells with the smallest minimum angle are circled, the
+  :data:`WORST_K` cells with the largest maximum angle marked with diamonds
+  (fixed-size markers, visible however small the cell).
+* Histogram counts are on a log scale, so one bad cell is one visible bar.
+
+Figures are built with ``matplotlib.figure.Figure`` on the Agg canvas (no
+pyplot, no global state, no display needed) and written atomically.
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 
+from . import _paths
 from .errors import AngleSmoothError
-from .quality import cell_min_angles, corner_angles
-from .topology import Topology
+from .meshplot import (
+    CMAP,
+    EDGE_FULL_PX,
+    EDGE_MIN_PX,
+    WORST_K,
+    ZOOM_HALF_CELLS,
+    _cell_nodes,
+    _cells_in,
+    _centroids,
+    _extremes,
+    _px_per_unit,
+    _smallest,
+    draw_mesh,
+    edge_alpha,
+    edge_widths,
+    worst_cells,
+    zoom_window,
+)
+from .quality import cell_areas
+from .topology import CellTopology
 
-__all__ = ["MISSING_MATPLOTLIB", "plot_compare", "plot_smooth", "require_matplotlib"]
+__all__ = [
+    "MISSING_MATPLOTLIB",
+    "compare_figure",
+    "draw_mesh",
+    "edge_alpha",
+    "edge_widths",
+    "plot_compare",
+    "plot_smooth",
+    "require_matplotlib",
+    "smooth_figure",
+    "worst_cells",
+    "zoom_window",
+]
 
 MISSING_MATPLOTLIB = "plotting needs matplotlib: pip install 'anglesmooth[plot]'"
 
-#: Above this many cells, cell edges are not drawn (they would only darken the picture).
-EDGE_LIMIT = 20_000
+DPI = 110
+#: Inverted cells marked with a cross in each mesh panel, at most.
+MAX_INVERTED_MARKS = 500
+MIN_COLOUR = "#1030ff"  # circles: smallest minimum angles
+MAX_COLOUR = "#c000c0"  # diamonds: largest maximum angles
 
 
 def require_matplotlib() -> None:
@@ -41,109 +92,236 @@ def require_matplotlib() -> None:
 
 def _figure(width: float, height: float):
     require_matplotlib()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    return Figure(figsize=(width, height), layout="constrained")
+    fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
 
 
 def _save(fig, path: str | Path) -> None:
-    path = Path(path)
+    """Write the PNG like every output (atomically, or into a device / FIFO; see ``_paths``)."""
+
+    def write(tmp):
+        with open(tmp, "wb") as fh:
+            # print_png rather than savefig: savefig draws twice when the figure has a layout engine
+            fig.canvas.print_png(fh)
+
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent or ".")
+        _paths.atomic_write(path, write, suffix=".png", what="cannot write plot")
     except OSError as exc:
         raise AngleSmoothError(f"cannot write plot '{path}': {exc.strerror or exc}") from None
-    try:
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        with os.fdopen(fd, "wb") as fh:
-            fig.savefig(fh, format="png", dpi=110)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise AngleSmoothError(f"cannot write plot '{path}': {exc.strerror or exc}") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
-def _draw_mesh(ax, topo: Topology, points: np.ndarray, values: np.ndarray, norm, cmap):
-    from matplotlib.collections import PolyCollection
-
-    lw = 0.3 if topo.n_tri + topo.n_quad <= EDGE_LIMIT else 0.0
-    nt = topo.n_tri
-    for cells, vals in ((topo.tri, values[:nt]), (topo.quad, values[nt:])):
-        if cells.shape[0] == 0:
-            continue
-        pc = PolyCollection(points[cells], array=vals, cmap=cmap, norm=norm, edgecolors="k", linewidths=lw)
-        ax.add_collection(pc)
+def _draw_mesh(ax, topo, points, values, norm, cmap):
+    """Every cell and every edge (the small meshes of ``benchmarks/paper``); sets equal aspect, no ticks."""
+    draw_mesh(ax, points, topo, values, norm=norm, cmap=cmap)
+    ax.update_datalim(np.asarray(points, dtype=np.float64)[:, :2])
     ax.set_aspect("equal")
     ax.autoscale_view()
     ax.set_xticks([])
     ax.set_yticks([])
 
 
-def _angles(points: np.ndarray, topo: Topology) -> np.ndarray:
-    t, q = corner_angles(points, topo)
-    return np.concatenate([t.ravel(), q.ravel()])
+def _mesh_axes(ax, window) -> None:
+    ax.set_xlim(window[0], window[1])
+    ax.set_ylim(window[2], window[3])
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xticks([])
+    ax.set_yticks([])
 
 
-def plot_smooth(path: str | Path, topo: Topology, before: np.ndarray, after: np.ndarray, *, title: str = "") -> None:
-    """Write a PNG: mesh before / after coloured by cell minimum angle, plus angle histograms.
+def _halo():
+    from matplotlib import patheffects
 
-    ``before`` and ``after`` are (N, 2) coordinates of the same mesh (``topo``).
+    return [patheffects.withStroke(linewidth=3.2, foreground="white")]
+
+
+def _mark(ax, cent: np.ndarray, lo: np.ndarray, hi: np.ndarray, inverted: np.ndarray) -> None:
+    """Fixed-size markers on the worst cells: diamonds under circles (the minimum angle matters most),
+    and a black cross on each inverted cell (the first :data:`MAX_INVERTED_MARKS`)."""
+    for idx, marker, size, colour, gid in ((hi, "D", 8, MAX_COLOUR, "worst-max"), (lo, "o", 11, MIN_COLOUR, "worst-min")):
+        if idx.size:
+            (line,) = ax.plot(cent[idx, 0], cent[idx, 1], linestyle="none", marker=marker, markersize=size,
+                              markerfacecolor="none", markeredgecolor=colour, markeredgewidth=1.6, zorder=5,
+                              path_effects=_halo())
+            line.set_gid(gid)
+    if inverted.size:
+        idx = inverted[:MAX_INVERTED_MARKS]
+        ax.plot(cent[idx, 0], cent[idx, 1], linestyle="none", marker="X", markersize=9, markerfacecolor="k",
+                markeredgecolor="white", markeredgewidth=0.8, zorder=6, gid="inverted")
+
+
+def _outline(ax, points, topo, idx: np.ndarray, colour: str, gid: str) -> None:
+    """Outline the cells ``idx`` (in the zoom panels, where the cells are large enough)."""
+    from matplotlib.collections import PolyCollection
+
+    if not idx.size:
+        return
+    polys = [points[_cell_nodes(topo, int(c))] for c in idx]
+    ax.add_collection(PolyCollection(polys, facecolors="none", edgecolors=colour, linewidths=2.0, zorder=4,
+                                     path_effects=_halo(), gid=gid))
+
+
+def _window_marker(ax, window, px_per_unit: float) -> None:
+    from matplotlib.patches import Rectangle
+
+    x0, x1, y0, y1 = window
+    if (x1 - x0) * px_per_unit >= 12:
+        ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, edgecolor="k", linewidth=1.2,
+                               linestyle="--", zorder=6, gid="zoom-window"))
+    else:  # too small to see as a rectangle: a fixed-size square
+        ax.plot([(x0 + x1) / 2], [(y0 + y1) / 2], marker="s", markersize=16, markerfacecolor="none",
+                markeredgecolor="k", markeredgewidth=1.2, linestyle="none", zorder=6, gid="zoom-window")
+
+
+def _hist(ax, before: np.ndarray, after: np.ndarray, bins: np.ndarray, labels, xlabel: str, lines) -> None:
+    lo, hi = bins[0], bins[-1]
+    ax.hist(np.clip(before, lo, hi), bins=bins, color="0.65", label=labels[0], log=True)
+    ax.hist(np.clip(after, lo, hi), bins=bins, histtype="step", color="C0", linewidth=1.5, label=labels[1], log=True)
+    ax.set_yscale("log")
+    ax.set_ylim(bottom=0.5)
+    for x in lines:
+        ax.axvline(x, color="k", linestyle=":", linewidth=0.8)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("cells (log scale)")
+    ax.legend(fontsize="small")
+
+
+def _span(*pts: np.ndarray):
+    allp = np.vstack(pts)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    pad = 0.02 * max(float((hi - lo).max()), 1e-300)
+    return (lo[0] - pad, hi[0] + pad, lo[1] - pad, hi[1] + pad)
+
+
+def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, title: str = "",
+                  k: int = WORST_K):
+    """The figure of :func:`plot_smooth` (a matplotlib ``Figure``, not saved).
+
+    Axes carry labels for inspection: ``"mesh before"``, ``"mesh after"``,
+    ``"zoom before"``, ``"zoom after"``, ``"hist min"``, ``"hist max"``; artists carry
+    gids ``"cells"``, ``"edges"``, ``"worst-min"``, ``"worst-max"``, ``"inverted"``, ``"zoom-window"``.
+    Inverted cells are filled black, crossed, counted in the titles and left out of the
+    minimum-angle histogram (their angles are > 180°, in the maximum-angle one's last bin);
+    the zoom is on the most folded inverted cell after, if any, else on the cell with the
+    smallest minimum angle after.
     """
+    import matplotlib
+    from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
+    from matplotlib.lines import Line2D
 
-    span = np.ptp(np.vstack([before, after]), axis=0) if before.shape[0] else np.ones(2)
-    mesh_h = float(np.clip(5.2 * span[1] / span[0], 2.0, 7.0)) if span[0] > 0 else 5.0
-    fig = _figure(12, mesh_h + 4.5)
-    if title:
-        fig.suptitle(title)
-    grid = fig.add_gridspec(2, 2, height_ratios=[mesh_h, 4.0])
+    before = np.asarray(before, dtype=np.float64)[:, :2]
+    after = np.asarray(after, dtype=np.float64)[:, :2]
+    n_cells = topo.n_tri + topo.n_quad
+    if n_cells == 0:
+        raise AngleSmoothError("nothing to plot: the mesh has no cells")
+    stages = {"before": before, "after": after}
+    mins, maxs, cent, areas, inverted, colour = {}, {}, {}, {}, {}, {}
+    for s, p in stages.items():
+        mins[s], maxs[s] = _extremes(p, topo)
+        cent[s] = _centroids(p, topo)
+        areas[s] = cell_areas(p, topo)
+        inverted[s] = np.flatnonzero(areas[s] <= 0)
+        colour[s] = mins[s].copy()
+        colour[s][inverted[s]] = -1.0  # below the colour scale: drawn black (an inverted cell's angles are > 180)
+    bad = {s: int(inverted[s].size) for s in stages}
+    worst = {s: (_smallest(mins[s], k), _smallest(-maxs[s], k)) for s in stages}
+    # zoom on the worst cell after: the most folded inverted cell if any, else the smallest minimum angle
+    focus = int(inverted["after"][np.argmax(maxs["after"][inverted["after"]])]) if bad["after"] \
+        else int(worst["after"][0][0])
+    window = zoom_window(after, topo, focus, centroids=cent["after"], areas=areas["after"])
+    extent = _span(before, after)
+
     ideal = 90.0 if topo.n_quad else 60.0
     norm = Normalize(vmin=0.0, vmax=ideal)
-    cmap = "RdYlGn"
-    mins = {"before": cell_min_angles(before, topo), "after": cell_min_angles(after, topo)}
-    ax0 = fig.add_subplot(grid[0, 0])
-    ax1 = fig.add_subplot(grid[0, 1], sharex=ax0, sharey=ax0)
-    for ax, (label, pts) in zip((ax0, ax1), (("before", before), ("after", after))):
-        _draw_mesh(ax, topo, pts, mins[label], norm, cmap)
-        ax.set_title(f"{label}: min angle {mins[label].min():.2f}°")
-    sm = ax1.collections[0]
-    fig.colorbar(sm, ax=[ax0, ax1], label="cell minimum angle (°)", shrink=0.8)
+    cmap = matplotlib.colormaps[CMAP].with_extremes(under="black")
+    aspect = (extent[3] - extent[2]) / (extent[1] - extent[0]) if extent[1] > extent[0] else 1.0
+    mesh_h = float(np.clip(6.3 * aspect, 2.5, 7.5))
+    fig = _figure(14.5, mesh_h + 4.9)
+    if title:
+        fig.suptitle(title)
+    grid = fig.add_gridspec(2, 4, height_ratios=[mesh_h, 3.6])
+    axes = {"mesh before": fig.add_subplot(grid[0, 0:2]), "mesh after": fig.add_subplot(grid[0, 2:4]),
+            "zoom before": fig.add_subplot(grid[1, 0]), "zoom after": fig.add_subplot(grid[1, 1]),
+            "hist min": fig.add_subplot(grid[1, 2]), "hist max": fig.add_subplot(grid[1, 3])}
+    for label, ax in axes.items():
+        ax.set_label(label)
+    for s in stages:
+        ax = axes[f"mesh {s}"]
+        _mesh_axes(ax, extent)
+        inv = f", {bad[s]} inverted" if bad[s] else ""
+        ax.set_title(f"{s}: min angle {mins[s].min():.2f}°, max angle {maxs[s].max():.2f}°{inv}")
+        _mesh_axes(axes[f"zoom {s}"], window)
+        axes[f"zoom {s}"].set_title(f"{s}: zoom on the worst cell after", fontsize="medium")
+    any_bad = bad["before"] or bad["after"]
+    fig.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=[axes["mesh before"], axes["mesh after"]],
+                 label="cell minimum angle (°)" + ("; black: inverted" if any_bad else ""), shrink=0.85,
+                 extend="min" if any_bad else "neither")
+    kk = min(k, n_cells)
+    handles = [Line2D([], [], linestyle="none", marker="o", markersize=9, markerfacecolor="none",
+                      markeredgecolor=MIN_COLOUR, markeredgewidth=1.6, label=f"smallest minimum angles ({kk} cell{'s' * (kk > 1)})"),
+               Line2D([], [], linestyle="none", marker="D", markersize=7, markerfacecolor="none",
+                      markeredgecolor=MAX_COLOUR, markeredgewidth=1.6, label=f"largest maximum angles ({kk} cell{'s' * (kk > 1)})"),
+               Line2D([], [], linestyle="none", marker="s", markersize=9, markerfacecolor="none",
+                      markeredgecolor="k", label="zoom window")]
+    if any_bad:
+        handles.append(Line2D([], [], linestyle="none", marker="X", markersize=9, markerfacecolor="k",
+                              markeredgecolor="white", label="inverted cells"))
+    fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), frameon=False)
 
-    bins = np.arange(0.0, 182.0, 2.0)
-    hist_c = fig.add_subplot(grid[1, 0])
-    for label, pts, style in (("before", before, dict(color="0.6", alpha=0.7)),
-                              ("after", after, dict(histtype="step", color="C0", linewidth=1.5))):
-        hist_c.hist(np.clip(_angles(pts, topo), 0, 180), bins=bins, label=label, **style)
-    for x in (20, 130, 150):
-        hist_c.axvline(x, color="k", linestyle=":", linewidth=0.8)
-    hist_c.set_xlabel("corner angle (°)")
-    hist_c.set_ylabel("corners")
-    hist_c.set_title("all corner angles")
-    hist_c.legend()
+    mbins = np.arange(0.0, ideal + 1.0, 1.0)
+    labels = [f"{s}" + (f" ({bad[s]} inverted not shown)" if bad[s] else "") for s in stages]
+    valid = {s: np.delete(mins[s], inverted[s]) for s in stages}
+    _hist(axes["hist min"], valid["before"], valid["after"], mbins, labels, "cell minimum angle (°)", [20])
+    axes["hist min"].set_title("cell minimum angles")
+    xbins = np.concatenate([np.arange(60.0 if topo.n_tri else 90.0, 181.0, 1.0), [185.0]])
+    _hist(axes["hist max"], maxs["before"], maxs["after"], xbins, list(stages),
+          "cell maximum angle (°); red: > 180°, invalid", [130, 150])
+    axes["hist max"].axvspan(180, 185, color="r", alpha=0.2, linewidth=0)
+    axes["hist max"].set_title("cell maximum angles")
 
-    hist_m = fig.add_subplot(grid[1, 1])
-    mbins = np.arange(0.0, ideal + 2.0, 1.0)
-    for label, style in (("before", dict(color="0.6", alpha=0.7)),
-                         ("after", dict(histtype="step", color="C0", linewidth=1.5))):
-        hist_m.hist(np.clip(mins[label], 0, ideal), bins=mbins, label=label, **style)
-    hist_m.axvline(20, color="k", linestyle=":", linewidth=0.8)
-    hist_m.set_xlabel("cell minimum angle (°)")
-    hist_m.set_ylabel("cells")
-    hist_m.set_title("cell minimum angles")
-    hist_m.legend()
-    _save(fig, path)
+    # freeze the layout before adding the mesh artists: the pixel size of a cell is then known,
+    # and a million polygons never enter the layout computation
+    fig.get_layout_engine().execute(fig)
+    fig.set_layout_engine("none")
+    for s, pts in stages.items():
+        lo, hi = worst[s]
+        ax = axes[f"mesh {s}"]
+        ppu = _px_per_unit(ax)
+        draw_mesh(ax, pts, topo, colour[s], norm=norm, cmap=cmap, px_per_unit=ppu)
+        _mark(ax, cent[s], lo, hi, inverted[s])
+        _window_marker(ax, window, ppu)
+        zax = axes[f"zoom {s}"]
+        inside = _cells_in(pts, topo, window)
+        draw_mesh(zax, pts, topo, colour[s], norm=norm, cmap=cmap, px_per_unit=_px_per_unit(zax), cells=inside)
+        shown = set(inside.tolist())
+        _outline(zax, pts, topo, np.array([c for c in hi if c in shown], dtype=np.int64), MAX_COLOUR, "worst-max")
+        _outline(zax, pts, topo, np.array([c for c in lo if c in shown], dtype=np.int64), MIN_COLOUR, "worst-min")
+        c = cent[s][focus]
+        towards = np.sign([(window[0] + window[1]) / 2 - c[0], (window[2] + window[3]) / 2 - c[1]]) + (0.5, 0.5)
+        label = "inverted" if areas[s][focus] <= 0 else f"{mins[s][focus]:.1f}°"
+        zax.annotate(label, c, xytext=tuple(9 * np.sign(towards)), textcoords="offset points",
+                     ha="left" if towards[0] > 0 else "right", va="bottom" if towards[1] > 0 else "top",
+                     fontsize="small", fontweight="bold", color="k", path_effects=_halo(), zorder=7,
+                     annotation_clip=True, clip_on=True)
+    return fig
 
 
-def plot_compare(path: str | Path, histories: Mapping[str, Mapping[str, Sequence[float | None]]], *,
-                 title: str = "") -> None:
-    """Write a PNG with the per-pass curves of every method.
+def plot_smooth(path: str | Path, topo: CellTopology, before: np.ndarray, after: np.ndarray, *,
+                title: str = "") -> None:
+    """Write a PNG: the mesh before / after coloured by cell minimum angle, worst cells marked, zoom, histograms.
 
-    ``histories`` maps a method name to ``{"min_angle": [...], "area_ratio": [...]}``,
-    index 0 being the input mesh; an infinite area ratio may be given as None.
+    ``before`` and ``after`` are (N, 2) coordinates of the same mesh (``topo``).
+    See :func:`smooth_figure`.
     """
+    _save(smooth_figure(topo, before, after, title=title), path)
+
+
+def compare_figure(histories: Mapping[str, Mapping[str, Sequence[float | None]]], *, title: str = ""):
+    """The figure of :func:`plot_compare` (not saved)."""
     fig = _figure(12, 4.5)
     if title:
         fig.suptitle(title)
@@ -165,4 +343,14 @@ def plot_compare(path: str | Path, histories: Mapping[str, Mapping[str, Sequence
     for ax in (ax_a, ax_r):
         ax.grid(True, alpha=0.3)
         ax.legend()
-    _save(fig, path)
+    return fig
+
+
+def plot_compare(path: str | Path, histories: Mapping[str, Mapping[str, Sequence[float | None]]], *,
+                 title: str = "") -> None:
+    """Write a PNG with the per-pass curves of every method.
+
+    ``histories`` maps a method name to ``{"min_angle": [...], "area_ratio": [...]}``,
+    index 0 being the input mesh; an infinite area ratio may be given as None.
+    """
+    _save(compare_figure(histories, title=title), path)

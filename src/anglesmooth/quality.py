@@ -93,6 +93,7 @@ __all__ = [
 
 #: Value Verdict (and VTK) return for a ratio whose denominator vanishes.
 VERDICT_DBL_MAX = 1.0e30
+_DBL_MIN = 1.0e-30  # Verdict's VERDICT_DBL_MIN
 
 #: Relative area below which a cell counts as degenerate: |A| <= DEGENERATE_REL * diag(bbox)^2.
 DEGENERATE_REL = 1.0e-12
@@ -125,6 +126,9 @@ METRICS: dict[str, str] = {
     "tri_radius_ratio": "Verdict triangle radius ratio R/(2r) (circumradius over twice the inradius), 1 ideal: {min, mean, max} or null",
     "quad_scaled_jacobian": "Verdict quad scaled Jacobian, min over corners of cross(e_prev, e_next)/(|e_prev||e_next|), in [-1, 1], 1 ideal: {min, mean, max} or null",
     "quad_aspect_ratio": "Verdict quad aspect ratio l_max*(l0+l1+l2+l3)/(4*|A|), 1 ideal: {min, mean, max} or null",
+    "quad_condition": "Verdict quad condition, max over corners of (|e_prev|^2+|e_next|^2)/(2*cross), 1 ideal: {min, mean, max} or null",
+    "min_edge": "shortest cell edge length; null without cells",
+    "edge_ratio": "longest / shortest cell edge length; null when the shortest is 0 or without cells (a collapsing edge shows here)",
 }
 
 
@@ -218,6 +222,19 @@ def _quad_jac(c: _Corners) -> np.ndarray:
     out = np.zeros(c.cross.shape)
     np.divide(c.cross, den, out=out, where=den > 0)
     return out.min(axis=0)
+
+
+def _quad_condition(c: _Corners) -> np.ndarray:
+    """Verdict quad condition: half the largest (|e_{k-1}|^2 + |e_k|^2) / cross_k over the corners
+    (VERDICT_DBL_MAX at a corner whose cross product is not positive)."""
+    l2 = c.length * c.length
+    num = l2 + np.roll(l2, 1, axis=0)
+    ok = c.cross > _DBL_MIN
+    out = np.full(c.cross.shape, VERDICT_DBL_MAX)
+    np.divide(num, c.cross, out=out, where=ok)
+    out = out.max(axis=0) if out.size else np.zeros(c.cross.shape[1])
+    out *= 0.5
+    return np.minimum(out, VERDICT_DBL_MAX, out=out)
 
 
 def _quad_aspect(c: _Corners, area: np.ndarray) -> np.ndarray:
@@ -443,6 +460,17 @@ def quad_scaled_jacobian(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     return _quad_jac(_corners(points, topo.quad))
 
 
+def quad_condition(points: np.ndarray, topo: CellTopology) -> np.ndarray:
+    """Verdict quad condition per quad, (n_quad,): 1 for a square, large for a thin or skewed quad.
+
+    Half the largest ``(|e_prev|^2 + |e_next|^2) / cross(e_prev, e_next)`` over the corners, as in
+    vtkMeshQuality's ``Condition``; VERDICT_DBL_MAX where a corner's cross product is not positive.
+    Unlike the angles and the scaled Jacobian it sees a quad flattened while keeping its right
+    angles (a collapsing boundary-layer cell).
+    """
+    return _quad_condition(_corners(points, topo.quad))
+
+
 def quad_aspect_ratio(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     """Verdict quad aspect ratio of each quad.
 
@@ -533,6 +561,9 @@ def summarize(points: np.ndarray, topo: CellTopology) -> dict[str, Any]:
         diag2 = float(((np.array([x.max(), y.max()]) - np.array([x.min(), y.min()])) ** 2).sum())
     else:
         diag2 = 0.0
+    edge_len = [c.length for c in (ct, cq) if c.length.size]
+    min_edge = _extreme(np.min, *edge_len) if edge_len else None
+    max_edge = _extreme(np.max, *edge_len) if edge_len else None
     min_area = _opt(absa, np.min)
     max_area = _opt(absa, np.max)
     return {
@@ -560,4 +591,7 @@ def summarize(points: np.ndarray, topo: CellTopology) -> dict[str, Any]:
         "tri_radius_ratio": _stats(_tri_radius(ct, at)),
         "quad_scaled_jacobian": _stats(_quad_jac(cq)),
         "quad_aspect_ratio": _stats(_quad_aspect(cq, aq)),
+        "quad_condition": _stats(_quad_condition(cq)),
+        "min_edge": min_edge,
+        "edge_ratio": (max_edge / min_edge) if min_edge else None,
     }

@@ -72,6 +72,9 @@ ROWS: list[tuple[str, str | None, str, str, int]] = [
     ("quad_scaled_jacobian", "min", "quad scaled Jacobian, min", "num", +1),
     ("quad_scaled_jacobian", "mean", "quad scaled Jacobian, mean", "num", +1),
     ("quad_aspect_ratio", "max", "quad aspect ratio, max", "num", -1),
+    ("quad_condition", "max", "quad condition, max", "num", -1),
+    ("min_edge", None, "min edge length", "num", 0),
+    ("edge_ratio", None, "edge ratio (max/min)", "num", -1),
 ]
 
 
@@ -263,6 +266,7 @@ def smooth_json(
     elapsed_s: float,
     gates: Sequence[Any],
     passed: bool,
+    compile_s: float = 0.0,
 ) -> dict[str, Any]:
     """The JSON document of a smoothing run (see the README for the schema)."""
     return {
@@ -281,6 +285,7 @@ def smooth_json(
         "before": dict(before),
         "after": dict(after),
         "elapsed_s": elapsed_s,
+        "compile_s": compile_s,
         "gates": [g.to_dict() for g in gates],
         "passed": passed,
     }

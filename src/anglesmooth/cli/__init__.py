@@ -17,6 +17,25 @@ unsupported / invalid input or unwritable output, 4 internal error (a bug),
 130 interrupted (SIGINT), 141 broken pipe, 143 terminated (SIGTERM).
 """
 
-from .main import cli, main
+import sys
 
 __all__ = ["cli", "main"]
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Console-script entry point; a Ctrl-C while the modules load exits 130 with one line."""
+    try:
+        from .main import main as run
+    except KeyboardInterrupt:
+        if sys.stderr is not None:
+            sys.stderr.write("anglesmooth: error: interrupted\n")
+        raise SystemExit(130) from None
+    run(argv)
+
+
+def __getattr__(name: str):
+    if name == "cli":  # the click group, loaded on first use
+        from .main import cli
+
+        return cli
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -11,9 +11,9 @@ from ..batch import FileResult, check_file, check_files
 from . import formats
 from .errors import Usage, error, handle_errors
 from .many import exclude_option, executor, expand_inputs, jobs_option, scheduler_option, worst_exit
-from .meshfiles import STDIO, check_writable, display, read_mesh
+from .meshfiles import STDIO, display, plan_outputs, read_mesh
 from .options import debug_option, gate_options, input_format_option, json_option, quiet_option
-from .outputs import emit_json, gate_thresholds, make_console, plain
+from .outputs import emit_json, gate_thresholds, make_console, note_stale, plain
 
 
 @click.command("check")
@@ -40,11 +40,12 @@ def check_cmd(inputs, input_format, exclude, jobs, scheduler, json_path, report_
     and --max-degenerate N relax it).
     """
     console = make_console(quiet)
-    thresholds, exit_zero = gate_thresholds(gate_opts, safe=True)
     formats.check_junit_path(junit_path)
-    if junit_path is not None:
-        check_writable(junit_path, "cannot write JUnit XML")
     paths = [p for p, _ in expand_inputs(inputs, exclude)]
+    read = [*(("INPUT", p) for p in paths), ("--gate-file", gate_opts.get("gate_file"))]
+    outs = plan_outputs({"--json": json_path, "--junit-xml": junit_path}, read)
+    note_stale(console, outs)
+    thresholds, exit_zero = gate_thresholds(gate_opts, safe=True)
     if STDIO in paths and (jobs != 1 or scheduler):
         raise Usage("'-' (stdin) cannot be checked with --jobs or --scheduler")
     entries = []
@@ -62,14 +63,11 @@ def check_cmd(inputs, input_format, exclude, jobs, scheduler, json_path, report_
     formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=json_path == STDIO)
     errors = any(e["error"] for e in entries)
     passed = not errors and all(e["passed"] for e in entries)
-    staged = formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth check")) if junit_path else None
-    try:
+    with outs:
         emit_json(json_path, report.check_json(entries, passed))
-    except BaseException:
-        if staged is not None:
-            staged.unlink(missing_ok=True)
-        raise
-    formats.commit(staged, junit_path)
+        if junit_path:
+            formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth check"))
+        outs.commit()
     code = worst_exit(results, exit_zero)
     if code:
         raise click.exceptions.Exit(code)

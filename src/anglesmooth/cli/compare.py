@@ -14,9 +14,9 @@ from ..smoothers import SMOOTHERS
 from ..smoothers._fast import kernel_mode
 from ..topology import build_topology
 from .errors import handle_errors
-from .meshfiles import display, read_mesh
+from .meshfiles import display, plan_outputs, read_mesh
 from .options import debug_option, input_format_option, json_option, no_guard_option, order_option, quiet_option
-from .outputs import emit_json, make_console, note_fast, warn_invalid
+from .outputs import emit_json, make_console, note_fast, note_stale, warn_invalid
 
 
 @click.command("compare")
@@ -34,26 +34,30 @@ from .outputs import emit_json, make_console, note_fast, warn_invalid
 def compare_cmd(input, passes, no_guard, order, input_format, json_path, plot, quiet, debug) -> None:
     """Run every registered method on INPUT and print one table (like the paper's Tables 1-2)."""
     console = make_console(quiet)
+    outs = plan_outputs({"--json": json_path, "--plot": plot}, [("INPUT", input)])
+    note_stale(console, outs)
     kernel_mode()  # a bad ANGLESMOOTH_KERNEL is a usage error before any work
     if plot:
         from ..plot import require_matplotlib
 
         require_matplotlib()
     name = display(input)
-    mesh = read_mesh(input, input_format)
-    topo = build_topology(mesh)
-    before = summarize(mesh.points, topo)
-    warn_invalid(console, name, before)
-    note_fast(console, topo, passes)
-    results = [_compare_one(mesh, topo, m, passes, not no_guard, order, before) for m in SMOOTHERS]
-    guard = "guarded" if not no_guard else "no guard"
-    console.print(report.compare_table(before, results, title=f"{name}: {passes} passes, {guard}, {order}"))
-    emit_json(json_path, report.compare_json(input=name, passes_requested=passes, guard=not no_guard,
-                                             order=order, before=before, results=results))
-    if plot:
-        from ..plot import plot_compare
+    with outs:
+        mesh = read_mesh(input, input_format)
+        topo = build_topology(mesh)
+        before = summarize(mesh.points, topo)
+        warn_invalid(console, name, before)
+        note_fast(console, topo, passes)
+        results = [_compare_one(mesh, topo, m, passes, not no_guard, order, before) for m in SMOOTHERS]
+        guard = "guarded" if not no_guard else "no guard"
+        emit_json(json_path, report.compare_json(input=name, passes_requested=passes, guard=not no_guard,
+                                                 order=order, before=before, results=results))
+        if plot:
+            from ..plot import plot_compare
 
-        plot_compare(plot, {r["method"]: r["history"] for r in results}, title=f"{name}: {guard}, {order}")
+            plot_compare(plot, {r["method"]: r["history"] for r in results}, title=f"{name}: {guard}, {order}")
+        outs.commit()
+    console.print(report.compare_table(before, results, title=f"{name}: {passes} passes, {guard}, {order}"))
 
 
 def _curve_point(points: np.ndarray, topo) -> tuple[float, float | None]:

@@ -8,6 +8,7 @@ unsupported / invalid input or unwritable output, 4 internal error (a bug),
 from __future__ import annotations
 
 import contextlib
+import errno
 import functools
 import os
 import sys
@@ -47,6 +48,7 @@ def handle_errors(fn: Callable) -> Callable:
     def wrapper(*args, **kwargs):
         debug = kwargs.get("debug", False)
         try:
+            check_environment()
             return fn(*args, **kwargs)
         except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort):
             raise
@@ -76,7 +78,38 @@ def classify(exc: BaseException) -> tuple[int, str]:
     if isinstance(exc, MemoryError):
         return EXIT_INPUT, "out of memory (the mesh is too large for this machine)"
     if isinstance(exc, BrokenPipeError):
-        with contextlib.suppress(OSError):
+        with contextlib.suppress(OSError, AttributeError, ValueError):
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_PIPE, ""
+    if isinstance(exc, OSError):  # the environment, not a bug: a full disk, a closed or failing stream
+        where = f" '{exc.filename}'" if exc.filename else ""
+        reason = "no space left on device" if exc.errno == errno.ENOSPC else (exc.strerror or str(exc))
+        return EXIT_INPUT, f"input/output error{where}: {reason}"
     return EXIT_INTERNAL, f"internal error: {type(exc).__name__}: {exc} (please report it; --debug shows the traceback)"
+
+
+def check_environment() -> None:
+    """Settings from the environment that would fail deep inside a library are usage errors up front."""
+    threads = os.environ.get("NUMBA_NUM_THREADS")
+    if threads is not None and threads.strip():
+        try:
+            ok = int(threads) > 0
+        except ValueError:
+            ok = False
+        if not ok:
+            raise Usage(f"NUMBA_NUM_THREADS={threads!r} must be a positive integer (the threads numba may use)")
+
+
+def prepare_std_streams() -> None:
+    """Closed stdin / stdout / stderr (``<&-``, ``>&-``): park /dev/null on the descriptor.
+
+    No file the command opens can then take descriptor 0, 1 or 2; writing the mesh or the JSON to
+    a closed stdout is refused (exit 3), and messages to a closed stderr are dropped.
+    """
+    from .. import _paths
+
+    closed = _paths.mark_closed_std_fds()
+    if 2 in closed or sys.stderr is None:
+        sys.stderr = open(os.devnull, "w")  # noqa: SIM115 - lives as long as the process
+    if 1 in closed or sys.stdout is None:
+        sys.stdout = open(os.devnull, "w")  # noqa: SIM115

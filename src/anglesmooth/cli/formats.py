@@ -22,17 +22,14 @@ show it.  The file is staged beside PATH and renamed into place, like the JSON r
 
 from __future__ import annotations
 
-import os
-import tempfile
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import NamedTuple
 
 import click
 
-from ..errors import MeshWriteError
+from .. import _paths
 from ..gates import Gate
 
 #: GitHub shows at most this many error annotations per step (docs: "10 error annotations ... per step").
@@ -188,32 +185,22 @@ def check_junit_path(path: str | None) -> None:
         raise Usage("--junit-xml needs a file path ('-' is not supported)")
 
 
-def stage_text(path: str, text: str, what: str = "JUnit XML") -> Path:
-    """Write ``text`` to a temporary file beside ``path`` (the pattern of ``outputs.stage_json``); rename it with
-    :func:`commit`.  The one place ``--junit-xml`` writes, so output-path policy can be routed through here."""
-    target = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=target.absolute().parent, prefix=f".{target.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+def stage_text(path: str, text: str, what: str = "JUnit XML") -> None:
+    """Write ``text`` to ``path`` like every output (``anglesmooth._paths``): staged in the command's
+    Outputs and committed with the others, or atomically at once outside one.  The one place
+    ``--junit-xml`` writes."""
+
+    def write(tmp):
+        with open(tmp, "w", encoding="utf-8") as fh:
             fh.write(text)
-    except BaseException as exc:
-        Path(tmp).unlink(missing_ok=True)
-        if isinstance(exc, OSError):
-            raise MeshWriteError(f"cannot write {what} '{path}': {exc.strerror or exc}") from None
-        raise
-    return Path(tmp)
 
-
-def commit(staged: Path | None, path: str | None) -> None:
-    """Rename a staged file into place."""
-    if staged is not None and path is not None:
-        os.replace(staged, path)
+    _paths.atomic_write(path, write, what=f"cannot write {what}")
 
 
 def write_junit(path: str | None, outcomes: Sequence[Outcome], suite: str) -> None:
     """Write the JUnit XML file atomically (nothing when ``path`` is None)."""
     if path is not None:
-        commit(stage_text(path, junit_xml(outcomes, suite)), path)
+        stage_text(path, junit_xml(outcomes, suite))
 
 
 def outcome(entry: dict) -> Outcome:

@@ -11,7 +11,8 @@ from ..__about__ import __version__
 from ..config import ConfigFileError, discover, load_config
 from .check import check_cmd
 from .compare import compare_cmd
-from .errors import EXIT_USAGE, error, on_sigterm
+from .errors import EXIT_USAGE, classify, error, on_sigterm, prepare_std_streams
+from .meshfiles import CONFIG_PATH
 from .outputs import CONFIG_GATES
 from .schema import schema_cmd
 from .smooth import smooth_cmd
@@ -120,10 +121,24 @@ def configure(ctx: click.Context, name: str, args: list[str]) -> None:
                 defaults[param.name] = value
     ctx.default_map = {name: defaults}
     ctx.meta[CONFIG_GATES] = config.gates
+    ctx.meta[CONFIG_PATH] = config.path  # an input: no output may name it
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Console-script entry point: install the SIGTERM handler and run the click group."""
+    """Console-script entry point: install the SIGTERM handler, guard closed std streams, run the group.
+
+    A Ctrl-C or SIGTERM that arrives outside a command (while click parses the arguments) exits
+    130 / 143 with one line, like one inside a command.
+    """
     with contextlib.suppress(ValueError):  # not in the main thread
         signal.signal(signal.SIGTERM, on_sigterm)
-    cli.main(args=argv, prog_name="anglesmooth")
+    prepare_std_streams()
+    try:
+        code = cli.main(args=argv, prog_name="anglesmooth", standalone_mode=False)
+    except (click.exceptions.Abort, KeyboardInterrupt) as exc:
+        code, message = classify(exc if isinstance(exc, KeyboardInterrupt) else exc.__context__ or KeyboardInterrupt())
+        error(message)
+    except click.exceptions.ClickException as exc:
+        exc.show()
+        code = exc.exit_code
+    raise SystemExit(code if isinstance(code, int) else 0)

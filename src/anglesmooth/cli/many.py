@@ -25,7 +25,7 @@ from ..errors import AngleSmoothError
 from ..gates import Gate
 from . import formats
 from .errors import EXIT_GATE, Usage, error
-from .meshfiles import STDIO, _suffix, check_writable
+from .meshfiles import STDIO, _suffix, plan_outputs
 from .outputs import emit_json, plain, warn_invalid
 
 DASK_EXTRA = "pip install 'anglesmooth[dask]'"
@@ -176,8 +176,6 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
     if plot:
         raise Usage("--plot draws one file; give one INPUT and OUTPUT")
     formats.check_junit_path(junit_path)
-    if junit_path is not None:
-        check_writable(junit_path, "cannot write JUnit XML")
     found = expand_inputs(inputs)
     outputs = _outputs(found, output_dir=output_dir, suffix=suffix, output_format=output_format, in_place=in_place)
     paths = [p for p, _ in found]
@@ -188,7 +186,7 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
     if json_path not in (None, STDIO):
         if os.path.realpath(json_path) in {os.path.realpath(o) for o in outputs + paths}:
             raise Usage(f"--json '{json_path}' is one of the mesh files")
-        check_writable(json_path, "cannot write JSON report")
+    reports = plan_outputs({"--json": json_path, "--junit-xml": junit_path}, [("INPUT", p) for p in paths])
     n = len(paths)
 
     def on_result(i: int, r: batch.FileResult) -> None:
@@ -214,8 +212,11 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
     outcomes = [_outcome(r) for r in results]
     if report_format != "table":
         formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=json_path == STDIO)
-    emit_json(json_path, files_json(results, elapsed))
-    formats.write_junit(junit_path, outcomes, "anglesmooth smooth")
+    with reports:
+        emit_json(json_path, files_json(results, elapsed))
+        if junit_path:
+            formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth smooth"))
+        reports.commit()
     code = worst_exit(results, exit_zero)
     if code:
         raise click.exceptions.Exit(code)

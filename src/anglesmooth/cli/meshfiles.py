@@ -8,12 +8,17 @@ import sys
 import tempfile
 from pathlib import Path
 
+import click
 import numpy as np
 
-from ..errors import AngleSmoothError, MeshWriteError
+from .. import _paths
+from ..errors import AngleSmoothError, MeshReadError
+from ..formats import UnknownFormatError, resolve
 from .errors import EXIT_INPUT, Usage
 
 STDIO = "-"
+#: ``ctx.meta`` key of the configuration file in use (set by ``main.configure``): an input of every command.
+CONFIG_PATH = "anglesmooth.config_path"
 
 # meshio format name -> file suffix, for the temporary files behind stdin/stdout.
 _SUFFIX = {"gmsh": ".msh", "gmsh22": ".msh", "ansys": ".msh", "vtu": ".vtu", "vtk": ".vtk", "xdmf": ".xdmf",
@@ -28,6 +33,14 @@ def display(path: str) -> str:
 
 def _suffix(fmt: str) -> str:
     return _SUFFIX.get(fmt, "." + fmt.split("-")[0])
+
+
+def format_name(name: str | None, option: str) -> str | None:
+    """A format name or alias -> the format name; unknown: a usage error listing every name."""
+    try:
+        return resolve(name)
+    except UnknownFormatError as exc:
+        raise Usage(f"{option}: {exc}") from None
 
 
 def _binary(stream):
@@ -45,11 +58,14 @@ def read_mesh(path: str, file_format: str | None):
     """Read a mesh file, or stdin for ``-`` (through a temporary file: meshio cannot read gmsh/VTU from a stream)."""
     from .. import io as mesh_io
 
+    file_format = format_name(file_format, "--input-format")
     if path != STDIO:
         with contextlib.redirect_stdout(sys.stderr):
             return mesh_io.read(path, file_format=file_format)
     if not file_format:
         raise Usage("reading from stdin ('-') needs --input-format (e.g. --input-format gmsh)")
+    if _paths.std_fd_closed(0):
+        raise MeshReadError("cannot read <stdin>: standard input is closed")
     data = _binary(sys.stdin).read()
     with tempfile.TemporaryDirectory(prefix="anglesmooth-") as tmpdir:
         tmp = Path(tmpdir) / ("stdin" + _suffix(file_format))
@@ -61,28 +77,46 @@ def read_mesh(path: str, file_format: str | None):
             raise _retarget(exc, tmp, "<stdin>") from None
 
 
-def write_mesh(mesh, path: str, points: np.ndarray, file_format: str | None) -> None:
-    """Write atomically to ``path``, or to stdout for ``-`` (via a temporary file)."""
+def check_output(mesh, path: str, file_format: str | None, binary: bool | None) -> None:
+    """Fail before smoothing (exit 3, one line) if OUTPUT's format cannot hold ``mesh``."""
     from .. import io as mesh_io
 
+    file_format = format_name(file_format, "--output-format")
+    target = Path("stdout" + _suffix(file_format)) if path == STDIO else Path(path)
+    if path == STDIO and file_format == "xdmf" and binary is None:
+        binary = False  # stdout carries one file: inline XML, no .h5 beside it
+    try:
+        with contextlib.redirect_stdout(sys.stderr):
+            mesh_io.check_output(mesh, target, file_format=file_format, binary=binary)
+    except AngleSmoothError as exc:
+        raise _retarget(exc, target, "<stdout>") if path == STDIO else exc from None
+
+
+def write_mesh(mesh, path: str, points: np.ndarray, file_format: str | None, binary: bool | None = None) -> None:
+    """Write to ``path`` or, for ``-``, stage the bytes for stdout (both committed by the active Outputs)."""
+    from .. import io as mesh_io
+
+    file_format = format_name(file_format, "--output-format")
     if path != STDIO:
         with contextlib.redirect_stdout(sys.stderr):
-            mesh_io.write(mesh, path, points=points, file_format=file_format)
+            mesh_io.write(mesh, path, points=points, file_format=file_format, binary=binary)
         return
-    with tempfile.TemporaryDirectory(prefix="anglesmooth-") as tmpdir:
-        tmp = Path(tmpdir) / ("stdout" + _suffix(file_format))
+    if file_format == "xdmf" and binary is None:
+        binary = False  # stdout carries one file: inline XML, no .h5 beside it
+
+    def write(tmp):
         try:
             with contextlib.redirect_stdout(sys.stderr):
-                mesh_io.write(mesh, tmp, points=points, file_format=file_format)
+                mesh_io.write(mesh, tmp, points=points, file_format=file_format, binary=binary)
         except AngleSmoothError as exc:
-            raise _retarget(exc, tmp, "<stdout>") from None
-        out = _binary(sys.stdout)
-        out.write(tmp.read_bytes())
-        out.flush()
+            raise _retarget(exc, Path(tmp), "<stdout>") from None
+
+    _paths.active().stage_stdout("OUTPUT", write, suffix=_suffix(file_format))
 
 
-def check_paths(input, output, *, force, in_place, input_format, output_format, json_path) -> str:
-    """Validate INPUT / OUTPUT and the overwrite rules; return the output path."""
+def check_paths(input, output, *, force, in_place, input_format, output_format, json_path, plot=None,
+                fix_nodes=None, gate_file=None, junit_path=None) -> tuple[str, _paths.Outputs]:
+    """Validate INPUT / OUTPUT and the overwrite rules; return the output path and every output, checked."""
     if in_place:
         if output is not None:
             raise Usage("--in-place writes back to INPUT; do not give an OUTPUT")
@@ -97,29 +131,34 @@ def check_paths(input, output, *, force, in_place, input_format, output_format, 
         raise Usage("writing to stdout ('-') needs --output-format (e.g. --output-format vtu)")
     if output == STDIO and json_path == STDIO:
         raise Usage("OUTPUT '-' and --json - cannot both use stdout")
-    if STDIO not in (input, output) and not (force or in_place) and _same_file(input, output):
-        raise Usage(f"OUTPUT '{output}' is the input file; pass --force or --in-place to overwrite it")
-    if output != STDIO:
-        check_writable(output, "cannot write")
-    if json_path is not None and json_path != STDIO:
-        check_writable(json_path, "cannot write JSON report")
-    return output
+    in_fmt = format_name(input_format, "--input-format")
+    out_fmt = format_name(output_format, "--output-format")
+    outs = plan_outputs({"OUTPUT": output, "--json": json_path, "--plot": plot, "--junit-xml": junit_path},
+                        [("INPUT", input), ("--fix-nodes", fix_nodes), ("--gate-file", gate_file)],
+                        may_replace_input=("OUTPUT",) if force or in_place else ())
+    # after the collision checks (an OUTPUT that is an input is reported as such): the glob accident
+    if output != STDIO and not (force or in_place) and os.path.isfile(output) and not _same_file(input, output):
+        kind = _same_kind(input, in_fmt, output, out_fmt)
+        if kind:
+            raise Usage(f"OUTPUT '{output}' exists and is a {kind} file like the input (two inputs from a shell "
+                        f"glob?); pass --force to overwrite it")
+    return output, outs
 
 
-def check_writable(path: str, what: str) -> None:
-    """Fail before any work if a file cannot be created in ``path``'s directory."""
-    parent = Path(path).absolute().parent
-    if not parent.exists():
-        raise MeshWriteError(f"{what} '{path}': directory '{parent}' does not exist")
-    if not parent.is_dir():
-        raise MeshWriteError(f"{what} '{path}': '{parent}' is not a directory")
-    if Path(path).is_dir():
-        raise MeshWriteError(f"{what} '{path}': it is a directory")
+def _family(fmt: str | None) -> str | None:
+    return "gmsh" if fmt and fmt.startswith("gmsh") else fmt
+
+
+def _same_kind(input: str, in_fmt: str | None, output: str, out_fmt: str | None) -> str | None:
+    """The format name when the existing OUTPUT has the input's format (as their names tell), else None."""
+    from .. import io as mesh_io
+
     try:
-        with tempfile.NamedTemporaryFile(dir=parent, prefix=".anglesmooth-probe-"):
-            pass
-    except OSError as exc:
-        raise MeshWriteError(f"{what} '{path}': cannot create a file in '{parent}': {exc.strerror or exc}") from None
+        a = _family(in_fmt or (mesh_io.output_format(input) if input != STDIO else None))
+        b = _family(out_fmt or mesh_io.output_format(output))
+    except AngleSmoothError:
+        return None
+    return a if a is not None and a == b else None
 
 
 def _same_file(a: str, b: str) -> bool:
@@ -129,18 +168,84 @@ def _same_file(a: str, b: str) -> bool:
         return False
 
 
-def read_fix_nodes(path: str) -> np.ndarray:
-    """0-based node indices, whitespace-separated; ``#`` starts a comment."""
+def plan_outputs(outputs: dict, inputs: list, may_replace_input=()) -> _paths.Outputs:
+    """Every output of a command, resolved and checked against every input and each other (see _paths)."""
+    what = {"--json": "cannot write JSON report", "--plot": "cannot write plot", "--junit-xml": "cannot write JUnit XML"}
+    ctx = click.get_current_context(silent=True)
+    config = ctx.meta.get(CONFIG_PATH) if ctx is not None else None
+    inputs = [*inputs, ("the configuration file", str(config) if config is not None else None)]
+    return _paths.Outputs.check(outputs, inputs, may_replace_input=may_replace_input, what=what)
+
+
+_NUMBERING = {"index": "0-based node indices", "gmsh": "gmsh node tags (1-based)"}
+
+
+def read_fix_nodes(path: str, numbering: str = "index") -> np.ndarray:
+    """Node numbers, whitespace-separated; ``#`` starts a comment (0-based indices or gmsh tags, see ``numbering``)."""
     try:
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise Usage(f"--fix-nodes: cannot read '{path}': {getattr(exc, 'strerror', None) or exc}") from None
     tokens = [t for line in text.splitlines() for t in line.split("#", 1)[0].split()]
     try:
-        return np.array([int(t) for t in tokens], dtype=np.int64)
+        values = [int(t) for t in tokens]
     except ValueError:
         bad = next(t for t in tokens if not t.lstrip("+-").isdigit())
-        raise Usage(f"--fix-nodes: '{path}' holds {bad!r}, expected 0-based node indices") from None
+        raise Usage(f"--fix-nodes: '{path}' holds {bad!r}, expected {_NUMBERING[numbering]} "
+                    f"(--node-numbering {numbering})") from None
+    big = next((v for v in values if not -(2**63) <= v < 2**63), None)
+    if big is not None:
+        raise Usage(f"--fix-nodes: node {big} in '{path}' is out of range")
+    return np.array(values, dtype=np.int64)
+
+
+def fix_node_indices(mesh, numbers: np.ndarray, numbering: str) -> np.ndarray:
+    """The 0-based indices of the --fix-nodes numbers (gmsh tags mapped through the MSH file's node tags)."""
+    from .. import io as mesh_io
+
+    n = mesh.n_points
+    if numbering == "index":
+        bad = numbers[(numbers < 0) | (numbers >= n)]
+        if bad.size:
+            hint = "; for gmsh node tags use --node-numbering gmsh" if mesh_io.node_tags(mesh) is not None else ""
+            raise Usage(f"--fix-nodes: node {int(bad[0])} out of range: 0-based node indices are expected "
+                        f"(--node-numbering index) and the mesh has nodes 0..{n - 1}{hint}")
+        return numbers
+    tags = mesh_io.node_tags(mesh)
+    if tags is None:
+        raise Usage("--node-numbering gmsh: the input has no gmsh node tags (only MSH files have them); "
+                    "give 0-based indices with --node-numbering index")
+    order = np.argsort(tags, kind="stable")
+    pos = np.searchsorted(tags, numbers, sorter=order)
+    pos = np.minimum(pos, n - 1)
+    found = tags[order[pos]] == numbers
+    if not found.all():
+        bad = int(numbers[~found][0])
+        raise Usage(f"--fix-nodes: gmsh node tag {bad} is not in the mesh (--node-numbering gmsh: 1-based tags "
+                    f"{int(tags.min())}..{int(tags.max())})")
+    return order[pos]
+
+
+def _group_nodes(mesh, name: str) -> np.ndarray:
+    """A group by name, by gmsh physical number ('11') or by dim:number ('2:11')."""
+    if name in mesh.groups:
+        return mesh.groups[name]
+    physical = getattr(mesh, "physical", {}) or {}
+    text = name.strip()
+    if text.isdigit():
+        hits = [k for k in physical if k[1] == int(text)]
+        if len(hits) == 1:
+            return physical[hits[0]]
+        if len(hits) > 1:
+            choices = " or ".join(f"{d}:{t}" for d, t in sorted(hits))
+            raise Usage(f"--fix-group: physical number {text} exists in several dimensions; write {choices}")
+    elif text.count(":") == 1 and all(part.strip().isdigit() for part in text.split(":")):
+        d, t = (int(part) for part in text.split(":"))
+        if (d, t) in physical:
+            return physical[(d, t)]
+    names = ", ".join(repr(k) for k in sorted(mesh.groups)) or "none"
+    numbers = ", ".join(f"{d}:{t}" for d, t in sorted(physical)) or "none"
+    raise Usage(f"--fix-group: no group {name!r} in the mesh; names: {names}; physical numbers (dim:number): {numbers}")
 
 
 def extra_fixed(mesh, groups: tuple[str, ...], nodes: np.ndarray | None) -> np.ndarray | None:
@@ -148,10 +253,7 @@ def extra_fixed(mesh, groups: tuple[str, ...], nodes: np.ndarray | None) -> np.n
         return None
     mask = np.zeros(mesh.n_points, dtype=bool)
     for name in groups:
-        if name not in mesh.groups:
-            known = ", ".join(sorted(mesh.groups)) or "none (the mesh has no named groups)"
-            raise Usage(f"--fix-group: no group {name!r} in the mesh; available: {known}")
-        mask[mesh.groups[name]] = True
+        mask[_group_nodes(mesh, name)] = True
     if nodes is not None and nodes.size:
         bad = nodes[(nodes < 0) | (nodes >= mesh.n_points)]
         if bad.size:

@@ -5,16 +5,14 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
-import tempfile
 import time
-from pathlib import Path
 
 import click
 from rich.console import Console
 from rich.markup import escape
 
-from .. import report
-from ..errors import GateFileError, MeshWriteError
+from .. import _paths, report
+from ..errors import GateFileError
 from ..gates import Gate, resolve_thresholds
 from ..smoothers._fast import would_help
 from .errors import Usage
@@ -60,28 +58,32 @@ def report_gates(console: Console, name: str, gates: list[Gate]) -> bool:
 
 
 def emit_json(json_path: str | None, document: dict) -> None:
-    """Write the JSON report to stdout, or atomically to a file."""
+    """Write the JSON report to stdout or a file: staged in the active Outputs, committed with the others."""
     if json_path is None:
         return
-    if json_path == STDIO:
-        click.echo(report.to_json(document))
-        return
-    os.replace(stage_json(json_path, document), json_path)
+    text = report.to_json(document) + "\n"
+
+    def write(tmp):
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+
+    outs = _paths.active()
+    if json_path == STDIO and outs is not None:
+        outs.stage_stdout("--json", write)
+    elif json_path == STDIO:
+        click.echo(text, nl=False)
+    else:
+        _paths.atomic_write(json_path, write, what="cannot write JSON report")
 
 
-def stage_json(json_path: str, document: dict) -> Path:
-    """Write the JSON report to a temporary file beside ``json_path``; the caller renames it into place."""
-    target = Path(json_path)
-    fd, tmp = tempfile.mkstemp(dir=target.absolute().parent, prefix=f".{target.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(report.to_json(document) + "\n")
-    except BaseException as exc:
-        Path(tmp).unlink(missing_ok=True)
-        if isinstance(exc, OSError):
-            raise MeshWriteError(f"cannot write JSON report '{json_path}': {exc.strerror or exc}") from None
-        raise
-    return Path(tmp)
+def note_stale(console: Console, outs) -> None:
+    """One line naming temporary files that an earlier, killed run left beside an output."""
+    stale = _paths.stale_temporaries(outs.targets.values())
+    if stale:
+        names = ", ".join(str(p) for p in stale[:3]) + (f" and {len(stale) - 3} more" if len(stale) > 3 else "")
+        if not console.quiet:  # one line, never wrapped
+            click.echo(f"note: temporary file(s) left by an interrupted earlier run: {names} (safe to delete "
+                       "once no other anglesmooth run writes the same output)", err=True)
 
 
 def plain(console: Console, text: str) -> None:
@@ -103,7 +105,8 @@ def warn_invalid(console: Console, name: str, summary: dict) -> None:
 
 
 @contextlib.contextmanager
-def progress_bar(console: Console, total: int, n_cells: int, wanted: bool | None, compiled: bool = False):
+def progress_bar(console: Console, total: int, n_cells: int, wanted: bool | None, compiled: bool = False,
+                 compiling: bool = False):
     auto = wanted is None and console.is_terminal and n_cells > PROGRESS_MIN_CELLS
     if not (wanted or auto) or console.quiet or total == 0:
         yield None
@@ -114,8 +117,10 @@ def progress_bar(console: Console, total: int, n_cells: int, wanted: bool | None
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
-    # the first pass loads the compiled kernels, and on the very first run compiles them (~15 s)
-    first = "smoothing (loading the compiled kernels; the first run ever compiles them)" if compiled else "smoothing"
+    # the first pass loads the compiled kernels, and on the very first run compiles them
+    first = "smoothing"
+    if compiled:
+        first = "smoothing (compiling kernels once)" if compiling else "smoothing (loading the compiled kernels)"
     with Progress(*columns, console=console, transient=True) as bar:
         task = bar.add_task(first, total=total)
 

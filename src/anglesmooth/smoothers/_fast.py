@@ -12,9 +12,20 @@ Why a compiled kernel
     and no per-chunk Python overhead.  Two of them do a whole per-node
     procedure at once: the candidate choice of the robust ``angle`` update
     (:func:`angle_choose`) and the compass search of ``optimize``
-    (:meth:`FastGeometry.compass`).  Loops over nodes run on every core
-    (numba ``prange``; ``NUMBA_NUM_THREADS`` limits it).  Measured figures:
-    ``benchmarks/README.md``.
+    (:meth:`FastGeometry.compass`).  Measured figures: ``benchmarks/README.md``.
+
+Threads
+    The kernels are compiled serially and release the GIL; :func:`_run`
+    splits a call's nodes into chunks that a few threads take in turn.  The
+    number of threads (:func:`threads`) is the number of cores this process
+    may run on (``os.sched_getaffinity``), capped by ``NUMBA_NUM_THREADS``
+    and by :func:`set_threads`, and a call with fewer than
+    :data:`MIN_CHUNK` nodes per thread uses fewer threads (one for small
+    blocks).  Because the chunks are taken in turn, a core that is busy with
+    other work simply takes fewer of them: on a loaded machine the threads
+    never wait for each other the way numba's ``parallel=True`` layer did
+    (issue 17: 3x slower than one thread with both cores loaded), and the
+    serial compile is about five times cheaper.
 
 Same numbers
     Every function computes the same floating-point operations in the same
@@ -30,14 +41,26 @@ When
     ``ANGLESMOOTH_KERNEL`` unset or ``auto``, the compiled kernels run when
     numba is installed (the ``fast`` extra) and the mesh has at least
     :data:`AUTO_MIN_FREE` free nodes, so small meshes never wait for a
-    compilation or for numba's import; ``numpy`` or ``numba`` force one.  The
-    compiled code is cached on disk by numba after its first use.
+    compilation or for numba's import; ``numpy`` or ``numba`` force one.
+
+Compiling
+    A kernel compiles on its first call, so a method compiles only the
+    kernels it uses.  The compiled code is cached on disk in a user cache
+    directory (:mod:`._jitcache`: ``$XDG_CACHE_HOME/anglesmooth/numba`` unless
+    ``NUMBA_CACHE_DIR`` or ``ANGLESMOOTH_CACHE_DIR`` says otherwise), so
+    later processes load it.  The time spent compiling or loading is counted
+    apart (:func:`jit_stats`), and :func:`cold_kernels` /
+    :func:`compile_estimate` tell beforehand whether a run will compile.
 """
 
 from __future__ import annotations
 
+import inspect
+import itertools
 import os
 import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -49,9 +72,14 @@ __all__ = [
     "active",
     "angle_choose",
     "angle_target",
+    "cold_kernels",
+    "compile_estimate",
+    "jit_stats",
     "kernel_mode",
     "laplacian_target",
     "local_scale",
+    "set_threads",
+    "threads",
     "warm_up",
     "would_help",
 ]
@@ -62,11 +90,42 @@ __all__ = [
 #: 2 cores: 60k triangles numpy 1.14 s vs numba 1.29 s; 100k triangles 1.46 s vs 1.32 s).
 AUTO_MIN_FREE = 40_000
 
+#: Fewest nodes per thread of a kernel call: a call with fewer nodes runs on one thread.  Handing a
+#: chunk to a thread costs some 10-50 us; 8192 nodes take 0.3 ms (``ring_mean``) to 8 ms
+#: (``angle_choose``).
+MIN_CHUNK = 8192
+#: Chunks per thread: a thread on a busy core takes fewer of them instead of holding the others up.
+CHUNKS_PER_THREAD = 4
+
+#: Compile time of each kernel, s (serial, cold cache, this 2-core VM): only for the estimate that
+#: :func:`compile_estimate` gives before a run; unknown kernels count :data:`_DEFAULT_COMPILE_S`.
+COMPILE_S = {"angle_choose": 3.2, "compass": 2.6, "score": 0.7, "ring_mean": 0.3, "angle_target": 0.6}
+_DEFAULT_COMPILE_S = 2.0
+#: The kernels a method's default run calls (for :func:`compile_estimate`; a hint, not a contract).
+METHOD_KERNELS = {
+    "angle": ("angle_choose", "ring_mean", "compass"),
+    "laplacian": ("ring_mean", "score"),
+    "smart-laplacian": ("ring_mean", "score"),
+    "optimization": ("ring_mean", "compass"),
+}
+
+# the kernels' array parameters that hold one row per node of the call, and the axis of that row;
+# SHARED arrays are indexed by mesh-wide ids and go whole to every chunk; any other parameter is a
+# scalar, or, when it is an array with one row per node, split along axis 0 too; a call with an
+# argument that is none of these runs whole on one thread (tests/test_fast_install.py checks that
+# every kernel's parameters are known)
+PER_NODE = {"nodes": 0, "x": 0, "X": 1, "scale": 0}
+SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "rp", "nbr", "tp", "tv", "qp", "qv", "directions", "fl"}
+SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep"}  # or one value per node, or empty
+
 _ENV = "ANGLESMOOTH_KERNEL"
 _kernels = None  # the compiled module, imported on first use
-# numba's default ("workqueue") threading layer aborts the process when two threads launch
-# parallel kernels at once; library callers may smooth several meshes from a thread pool
-_LOCK = threading.Lock()
+_COMPILE_LOCK = threading.Lock()
+_pool: ThreadPoolExecutor | None = None
+_pool_size = 0
+_threads_cap: int | None = None
+_stats = {"compile_s": 0.0, "load_s": 0.0, "compiled": [], "loaded": []}
+_split_specs: dict = {}
 
 
 def _numba_available() -> bool:
@@ -113,30 +172,213 @@ def would_help(topo) -> bool:
 def _k():
     global _kernels
     if _kernels is None:
+        from . import _jitcache
+
+        _jitcache.install()  # before the kernels are decorated: numba picks their cache location then
         from . import _fastkernels
 
         _kernels = _fastkernels
     return _kernels
 
 
+def _cores() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def set_threads(n: int | None) -> None:
+    """Cap the threads of the compiled kernels at ``n`` (``None``: no cap beyond :func:`threads`')."""
+    global _threads_cap
+    if n is not None and int(n) < 1:
+        raise ValueError(f"threads must be at least 1, not {n}")
+    _threads_cap = None if n is None else int(n)
+
+
+def threads(n_nodes: int | None = None) -> int:
+    """Threads for a kernel call over ``n_nodes`` nodes (``None``: the most any call would use).
+
+    The cores this process may run on, capped by ``NUMBA_NUM_THREADS`` (when set) and
+    :func:`set_threads`, and by one thread per :data:`MIN_CHUNK` nodes.
+    """
+    n = _cores()
+    env = os.environ.get("NUMBA_NUM_THREADS", "").strip()
+    if env.isdigit() and int(env) >= 1:
+        n = min(n, int(env))
+    if _threads_cap is not None:
+        n = min(n, _threads_cap)
+    if n_nodes is not None:
+        n = min(n, max(1, n_nodes // MIN_CHUNK))
+    return max(1, n)
+
+
+def jit_stats() -> dict:
+    """Time spent compiling (``compile_s``) and loading from the cache (``load_s``) kernels in this
+    process so far, and which kernels (``compiled``, ``loaded``); a copy."""
+    return {k: (list(v) if isinstance(v, list) else v) for k, v in _stats.items()}
+
+
+def _is_dispatcher(fn) -> bool:
+    return hasattr(fn, "py_func") and hasattr(fn, "overloads")
+
+
+def _prepare(fn, args) -> None:
+    """Compile (or load from the cache) ``fn`` for ``args``' types before it runs, timed apart."""
+    try:
+        sig = tuple(fn.typeof_pyval(a) for a in args)
+    except Exception:  # noqa: BLE001 - numba's API moved: the call compiles as usual, untimed
+        return
+    if sig in fn.overloads:
+        return
+    with _COMPILE_LOCK:
+        if sig in fn.overloads:
+            return
+        hits = sum(fn.stats.cache_hits.values())
+        t0 = time.perf_counter()
+        fn.compile(sig)
+        dt = time.perf_counter() - t0
+        loaded = sum(fn.stats.cache_hits.values()) > hits
+        _stats["load_s" if loaded else "compile_s"] += dt
+        _stats["loaded" if loaded else "compiled"].append(fn.__name__)
+
+
+def _params(fn) -> tuple:
+    names = _split_specs.get(fn)
+    if names is None:
+        names = _split_specs[fn] = tuple(inspect.signature(fn.py_func).parameters)
+    return names
+
+
+def _split_spec(fn, args=None):
+    """((argument index, axis), ...) of ``fn``'s per-node arguments, the axis of its outputs' nodes and
+    the index of ``nodes``; None when the call cannot be split (it then runs whole).  With ``args``,
+    a scalar-named parameter given an array with one row per node counts as per-node."""
+    names = _params(fn)
+    if "nodes" not in names or len(names) != (len(args) if args is not None else len(names)):
+        return None
+    at = names.index("nodes")
+    n = args[at].shape[0] if args is not None else None
+    per_node = []
+    for i, p in enumerate(names):
+        if p in PER_NODE:
+            per_node.append((i, PER_NODE[p]))
+        elif p in SHARED:
+            continue
+        elif p not in SCALARS:
+            return None
+        elif args is not None and isinstance(args[i], np.ndarray) and args[i].ndim and args[i].shape[0]:
+            if args[i].shape[0] != n:
+                return None
+            per_node.append((i, 0))  # (an empty array, "none", goes whole like a scalar)
+    return tuple(per_node), 1 if "X" in names else 0, at
+
+
+def _get_pool(n: int) -> ThreadPoolExecutor:
+    global _pool, _pool_size
+    with _COMPILE_LOCK:
+        if _pool is None or _pool_size < n:
+            if _pool is not None:
+                _pool.shutdown(wait=False)  # its threads finish what they hold, then exit
+            _pool = ThreadPoolExecutor(max_workers=n, thread_name_prefix="anglesmooth-kernel")
+            _pool_size = n
+        return _pool
+
+
+def _chunk(a: np.ndarray, axis: int, lo: int, hi: int) -> np.ndarray:
+    part = a[lo:hi] if axis == 0 else a[(slice(None),) * axis + (slice(lo, hi),)]
+    return part if part.flags.c_contiguous else np.ascontiguousarray(part)  # the same compiled signature
+
+
+def _threaded(fn, args, spec, n: int, n_threads: int):
+    """``fn(*args)`` with the per-node arguments cut into chunks that ``n_threads`` threads take in turn."""
+    per_node, out_axis, _ = spec
+    n_chunks = min(n_threads * CHUNKS_PER_THREAD, max(n_threads, n // MIN_CHUNK))
+    bounds = np.linspace(0, n, n_chunks + 1).astype(np.int64)
+    results = [None] * n_chunks
+    counter = itertools.count()
+    stop = []  # set when a thread fails or is interrupted: the others take no further chunk
+
+    def work():
+        try:
+            while not stop and (i := next(counter)) < n_chunks:
+                sub = list(args)
+                for j, axis in per_node:
+                    sub[j] = _chunk(args[j], axis, bounds[i], bounds[i + 1])
+                results[i] = fn(*sub)
+        except BaseException:
+            stop.append(True)
+            raise
+
+    helpers = [_get_pool(n_threads - 1).submit(work) for _ in range(n_threads - 1)]
+    try:
+        work()
+    finally:
+        for h in helpers:  # wait for the others even when this thread failed (they use the arrays)
+            h.exception()
+    for h in helpers:
+        h.result()
+    if isinstance(results[0], tuple):
+        return tuple(np.concatenate(parts, axis=out_axis) for parts in zip(*results))
+    return np.concatenate(results, axis=out_axis)
+
+
+def _call(fn, args):
+    if not _is_dispatcher(fn):
+        return fn(*args)
+    _prepare(fn, args)
+    names = _params(fn)
+    n = args[names.index("nodes")].shape[0] if "nodes" in names and len(names) == len(args) else 0
+    n_threads = threads(n) if n else 1
+    spec = _split_spec(fn, args) if n_threads > 1 else None
+    if spec is None:
+        return fn(*args)
+    return _threaded(fn, args, spec, n, n_threads)
+
+
 def _run(fn, *args):
-    """Call a compiled kernel, one at a time across threads (see ``_LOCK``).
+    """Call a compiled kernel: compiled first (timed apart), then on :func:`threads` threads.
 
     A signal handler that raises (Ctrl-C's ``KeyboardInterrupt``, the CLI's SIGTERM handler) while
     a kernel runs may fire inside numba's own Python helpers (``_numba_unpickle``), which then
     report a chain of ``SystemError`` s ("returned a result with an exception set") whose root cause
     is that interrupt; the interrupt is re-raised instead, so that it is handled as one.
     """
-    with _LOCK:
+    try:
+        return _call(fn, args)
+    except SystemError as exc:
+        root = exc
+        while isinstance(root, SystemError) and root.__cause__ is not None:
+            root = root.__cause__
+        if not isinstance(root, Exception):  # KeyboardInterrupt and its kin
+            raise root from None
+        raise
+
+
+def cold_kernels(names=None) -> list[str]:
+    """The kernels (of ``names``, default all) that have no compiled code in memory or in the cache:
+    their first call will compile them.  Imports numba."""
+    k = _k()
+    names = [n for n in (names or COMPILE_S) if hasattr(k, n)]
+    cold = []
+    for name in names:
+        fn = getattr(k, name)
+        if fn.overloads:
+            continue
         try:
-            return fn(*args)
-        except SystemError as exc:
-            root = exc
-            while isinstance(root, SystemError) and root.__cause__ is not None:
-                root = root.__cause__
-            if not isinstance(root, Exception):  # KeyboardInterrupt and its kin
-                raise root from None
-            raise
+            index = fn._cache._cache_file._load_index()  # {} when absent or stale (source changed)
+        except Exception:  # noqa: BLE001 - no cache (NullCache) or numba's layout moved
+            index = {}
+        if not index:
+            cold.append(name)
+    return cold
+
+
+def compile_estimate(method: str | None = None) -> float:
+    """Seconds the kernels of ``method`` (default: all) will take to compile in this process, about
+    (0.0 when they are all cached or compiled already); from :data:`COMPILE_S`."""
+    names = METHOD_KERNELS.get(method, tuple(COMPILE_S)) if method else tuple(COMPILE_S)
+    return sum(COMPILE_S.get(n, _DEFAULT_COMPILE_S) for n in cold_kernels(names))
 
 
 def _csr(topo):
@@ -178,13 +420,24 @@ def local_scale(points: np.ndarray, topo, blk, subset: np.ndarray | None = None)
     return _run(_k().ring_mean, points, nodes, topo.free_nodes, rp, topo.ring_nbr, True)[:, 0]
 
 
-def angle_choose(points: np.ndarray, topo, blk, good: float):
-    """Stages 1 and 2 of the robust ``angle`` update, fused per node (see :func:`.angle.step`)."""
+def _floors(floors) -> np.ndarray:
+    """The input floors (``_floors.Floors`` or None) as the (6, rows) array the kernels take; (0, 0) for none."""
+    return np.zeros((0, 0)) if floors is None or not floors.active else floors.packed
+
+
+def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None):
+    """Stages 1 and 2 of the robust ``angle`` update, fused per node (see :func:`.angle.step`).
+
+    ``good``: the acceptance score threshold, one per block node or one for all; ``keep``: None or
+    a bool per block node, where the angle position must also be no worse than staying.
+    """
     rp, sp, tp, qp = _csr(topo)
+    good = np.ascontiguousarray(np.broadcast_to(np.asarray(good, dtype=np.float64), (blk.size,)))
     return _run(
         _k().angle_choose,
         points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,
-        rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, float(good),
+        rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, good, _floors(floors),
+        np.zeros(0, np.bool_) if keep is None else np.ascontiguousarray(keep, dtype=np.bool_),
     )
 
 
@@ -197,14 +450,15 @@ class FastGeometry:
     the free-node indices it scores.
     """
 
-    def __init__(self, points: np.ndarray, topo, blk, nodes: np.ndarray | None = None):
+    def __init__(self, points: np.ndarray, topo, blk, nodes: np.ndarray | None = None, floors=None):
         self._pts = points
         self._topo = topo
         self._nodes = _nodes(blk) if nodes is None else nodes
         self.n = self._nodes.shape[0]
+        self._fl = floors if isinstance(floors, np.ndarray) else _floors(floors)
 
     def restrict(self, subset: np.ndarray) -> FastGeometry:
-        return FastGeometry(self._pts, self._topo, None, self._nodes[subset])
+        return FastGeometry(self._pts, self._topo, None, self._nodes[subset], self._fl)
 
     def score(self, X: np.ndarray) -> np.ndarray:
         """Local score at candidate positions ``X`` (..., n, 2) -> (..., n)."""
@@ -212,7 +466,7 @@ class FastGeometry:
         _, _, tp, qp = _csr(t)
         X = np.asarray(X, dtype=np.float64)
         Xf = np.ascontiguousarray(X.reshape((-1, self.n, 2)))
-        s = _run(_k().score, self._pts, Xf, self._nodes, tp, t.tri_verts, qp, t.quad_verts)
+        s = _run(_k().score, self._pts, Xf, self._nodes, tp, t.tri_verts, qp, t.quad_verts, self._fl)
         return s.reshape(X.shape[:-2] + (self.n,))
 
     def compass(self, x, scale, iterations: int, radius: float, area_band: float | None, directions: np.ndarray):
@@ -223,12 +477,17 @@ class FastGeometry:
         return _run(
             _k().compass, self._pts, np.ascontiguousarray(x, dtype=np.float64), self._nodes, tp, t.tri_verts, qp,
             t.quad_verts, np.ascontiguousarray(scale, dtype=np.float64), int(iterations), float(radius), band,
-            directions,
+            directions, self._fl,
         )
 
 
-def warm_up() -> None:
-    """Compile (or load from numba's cache) every kernel on a tiny mesh."""
+def warm_up(kernels=None) -> None:
+    """Compile (or load from the cache) the ``kernels`` named (default: every kernel) on a tiny mesh.
+
+    The tiny mesh's tables have the types of any mesh's, so the compiled code is what a large mesh
+    runs (a different signature would only compile again).
+    """
+    want = set(COMPILE_S if kernels is None else kernels)
     from ..generate import structured_quads, structured_triangles
     from ..mesh import Mesh2D
     from ..topology import build_topology
@@ -239,11 +498,19 @@ def warm_up() -> None:
         np.concatenate([t.points, q.points + [5.0, 0.0]]), triangles=t.triangles, quads=q.quads + n
     )
     topo = build_topology(m)
+    pts = np.array(m.points)  # writeable, as the points a smoothing run passes (another signature otherwise)
     for blk in topo.blocks():
-        g = FastGeometry(m.points, topo, blk)
-        x = m.points[topo.free_nodes[blk.nodes]]
-        g.score(x)
-        g.compass(x, np.ones(g.n), 1, 0.25, 0.8, np.eye(2)), g.compass(x, np.ones(g.n), 1, 0.25, None, np.eye(2))
-        angle_target(m.points, topo, blk), laplacian_target(m.points, topo, blk), local_scale(m.points, topo, blk)
-        angle_choose(m.points, topo, blk, 0.5)
+        g = FastGeometry(pts, topo, blk)
+        x = pts[topo.free_nodes[blk.nodes]]
+        if "score" in want:
+            g.score(x)
+        if "compass" in want:
+            g.compass(x, np.ones(g.n), 1, 0.25, 0.8, np.eye(2)), g.compass(x, np.ones(g.n), 1, 0.25, None, np.eye(2))
+        if "angle_target" in want:
+            angle_target(pts, topo, blk)
+        if "ring_mean" in want:
+            laplacian_target(pts, topo, blk), local_scale(pts, topo, blk)
+        if "angle_choose" in want:
+            angle_choose(pts, topo, blk, 0.5)
+
 

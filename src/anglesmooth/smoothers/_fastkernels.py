@@ -2,8 +2,11 @@
 
 Each per-node helper (``_node_*``) mirrors, operation for operation, the numpy
 code it replaces in :mod:`._local` or :mod:`.angle` (named in its docstring);
-keep the two in step.  The exported kernels loop over nodes in parallel
-(``prange``): a node reads the shared points and writes only its own outputs.
+keep the two in step.  The exported kernels loop over the nodes they are
+given (``prange``, compiled serially): a node reads the shared points and
+writes only its own outputs, so :func:`._fast._run` runs them on several
+threads by splitting the nodes (numba's own parallel layer costs five times
+the compile time and oversubscribes busy machines; see ``_fast``).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from ._local import INVALID, INVERTED_WEIGHT
 
 # error_model="numpy": x / 0 gives inf / NaN as in numpy instead of raising; no fastmath, so no
 # reassociation or fused multiply-adds and the same rounding as numpy
-_OPTS = {"cache": True, "error_model": "numpy", "parallel": True, "nogil": True}
+_OPTS = {"cache": True, "error_model": "numpy", "parallel": False, "nogil": True}
 _TWO_PI = 2 * np.pi
 
 
@@ -31,10 +34,14 @@ def _kernel(fn):
 
 
 @njit(inline="always")
-def _node_score(pts, px, py, f, tp, tv, qp, qv):
-    """``BlockGeometry.score`` for one node (free index ``f``) at (px, py): ``_tri_chunk`` / ``_quad_chunk``."""
+def _node_score(pts, px, py, f, tp, tv, qp, qv, fl):
+    """``BlockGeometry.score`` for one node (free index ``f``) at (px, py): ``_tri_chunk`` / ``_quad_chunk``.
+
+    ``fl``: the input floors (``_floors.Floors``) as a (6, rows) array, or an empty one (no floors).
+    """
     best = np.inf
     bad = 0.0
+    floors = fl.shape[0] > 0
     for r in range(tp[f], tp[f + 1]):
         i1, i2 = tv[r, 1], tv[r, 2]
         x1, y1, x2, y2 = pts[i1, 0], pts[i1, 1], pts[i2, 0], pts[i2, 1]
@@ -48,9 +55,13 @@ def _node_score(pts, px, py, f, tp, tv, qp, qv):
         v1 = (ux * ex1 + uy * ey1) / (l12 * l1)
         v2 = (fx2 * ux + fy2 * uy) / (l2 * l12)
         v = min(v0, v1, v2)
+        cr = ex1 * fy2 - ey1 * fx2
+        okf = True
+        if floors:
+            okf = (-cr >= fl[0, r]) & (l1 >= fl[1, r]) & (l2 >= fl[2, r])
         # valid: corner cross product < 0 and np.minimum(v0, v1, v2) finite (a NaN propagates there);
         # bitwise & keeps the test free of branches
-        if (ex1 * fy2 - ey1 * fx2 < 0) & (v0 == v0) & (v1 == v1) & (v2 == v2) & (abs(v) < np.inf):
+        if (cr < 0) & okf & (v0 == v0) & (v1 == v1) & (v2 == v2) & (abs(v) < np.inf):
             best = min(best, v)
         else:
             ex2, ey2 = x2 - px, y2 - py
@@ -77,6 +88,9 @@ def _node_score(pts, px, py, f, tp, tv, qp, qv):
         # valid: the three corner cross products > 0, corner 2 valid, and every |cos| finite
         # (x < inf is False for NaN and inf; np.maximum would propagate either)
         ok = (ex1 * ey3 - ey1 * ex3 > 0) & (uy * ex1 - ux * ey1 > 0) & (ex3 * vy - ey3 * vx > 0) & ok2
+        if floors:
+            a2 = (x1 + ux - px) * (y3 - y1) - (y1 + uy - py) * (x3 - x1)
+            ok = ok & (a2 >= fl[3, r]) & (l1 >= fl[4, r]) & (l3 >= fl[5, r])
         if ok & (a0 < np.inf) & (a1 < np.inf) & (a3 < np.inf):
             best = min(best, -cm)
         else:
@@ -111,13 +125,13 @@ def _node_area_range(pts, px, py, f, tp, tv, qp, qv):
 
 
 @_kernel
-def score(pts, X, nodes, tp, tv, qp, qv):
+def score(pts, X, nodes, tp, tv, qp, qv, fl):
     K, n = X.shape[0], X.shape[1]
     out = np.empty((K, n))
     for i in prange(n):
         f = nodes[i]
         for k in range(K):
-            out[k, i] = _node_score(pts, X[k, i, 0], X[k, i, 1], f, tp, tv, qp, qv)
+            out[k, i] = _node_score(pts, X[k, i, 0], X[k, i, 1], f, tp, tv, qp, qv, fl)
     return out
 
 
@@ -199,10 +213,12 @@ def ring_mean(pts, nodes, free, rp, nbr, lengths):
 
 
 @_kernel
-def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good):
+def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good, fl, keep):
     """Stages 1 and 2 of the robust ``angle`` update (``angle.step``), fused per node.
 
-    Returns the chosen positions, their scores and whether the angle position was invalid.
+    ``good`` is the per-node acceptance threshold; where ``keep`` (empty: nowhere) the angle position
+    must also be no worse than staying.  Returns the chosen positions, their scores and
+    whether the angle position was invalid.
     """
     n = nodes.shape[0]
     new = np.empty((n, 2))
@@ -210,35 +226,52 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
     refused = np.zeros(n, np.bool_)
     for i in prange(n):
         f = nodes[i]
-        cx, cy = pts[free[f], 0], pts[free[f], 1]
         ax, ay = _node_angle(pts, f, free, sp, ring, sa, sb, frac)
-        s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv)
-        s_c = _node_score(pts, cx, cy, f, tp, tv, qp, qv)
+        s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv, fl)
         refused[i] = s_a <= INVALID + 0.5
-        if s_a >= s_c and s_a >= good:
+        cx, cy = pts[free[f], 0], pts[free[f], 1]
+        take = s_a >= good[i]
+        if take and keep.shape[0] > 0 and keep[i]:
+            take = s_a >= _node_score(pts, cx, cy, f, tp, tv, qp, qv, fl)
+        if take:
             new[i, 0], new[i, 1], best[i] = ax, ay, s_a
             continue
         # candidates in the numpy order: A, L, (A + L) / 2, (A + C) / 2, C; the first best wins
         lx, ly = _node_ring_mean(pts, f, free, rp, nbr, False)
         bx, by, bs = ax, ay, s_a
-        for k in range(3):
+        stuck = s_a <= INVALID + 0.5
+        for k in range(4):
             if k == 0:
                 px, py = lx, ly
             elif k == 1:
                 px, py = 0.5 * (ax + lx), 0.5 * (ay + ly)
-            else:
+            elif k == 2:
                 px, py = 0.5 * (ax + cx), 0.5 * (ay + cy)
-            sk = _node_score(pts, px, py, f, tp, tv, qp, qv)
+            else:
+                px, py = cx, cy
+            sk = _node_score(pts, px, py, f, tp, tv, qp, qv, fl)
+            if k < 3:
+                stuck = stuck & (sk <= INVALID + 0.5)
+            elif stuck:
+                stuck = sk > INVALID + 0.5  # staying is valid
             if sk > bs:
                 bx, by, bs = px, py, sk
-        if s_c > bs:
-            bx, by, bs = cx, cy, s_c
+        if stuck:  # stage 3, ``first_valid``: the Laplacian move, halved until valid (else staying)
+            dx, dy = lx - cx, ly - cy
+            fr = 1.0
+            for _ in range(7):
+                px, py = cx + fr * dx, cy + fr * dy
+                sk = _node_score(pts, px, py, f, tp, tv, qp, qv, fl)
+                if sk > INVALID + 0.5:
+                    bx, by, bs = px, py, sk
+                    break
+                fr *= 0.5
         new[i, 0], new[i, 1], best[i] = bx, by, bs
     return new, best, refused
 
 
 @_kernel
-def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, directions):
+def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, directions, fl):
     """``optimize``: compass search per node, optionally within an area band (``band`` < 0: none)."""
     n = nodes.shape[0]
     out = np.empty((n, 2))
@@ -246,7 +279,7 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
     for i in prange(n):
         f = nodes[i]
         px, py = x[i, 0], x[i, 1]
-        s0 = _node_score(pts, px, py, f, tp, tv, qp, qv)
+        s0 = _node_score(pts, px, py, f, tp, tv, qp, qv, fl)
         lo0 = hi0 = 0.0
         if band >= 0:
             lo0, hi0 = _node_area_range(pts, px, py, f, tp, tv, qp, qv)
@@ -259,9 +292,9 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
                 qx, qy = px + directions[c, 0] * r, py + directions[c, 1] * r
                 if band >= 0:
                     lo, hi = _node_area_range(pts, qx, qy, f, tp, tv, qp, qv)
-                    sc = _node_score(pts, qx, qy, f, tp, tv, qp, qv) if lo >= lo0 and hi <= hi0 else -np.inf
+                    sc = _node_score(pts, qx, qy, f, tp, tv, qp, qv, fl) if lo >= lo0 and hi <= hi0 else -np.inf
                 else:
-                    sc = _node_score(pts, qx, qy, f, tp, tv, qp, qv)
+                    sc = _node_score(pts, qx, qy, f, tp, tv, qp, qv, fl)
                 if c == 0 or sc > bs:  # np.argmax: the first best
                     bx, by, bs = qx, qy, sc
             if bs > s0:

@@ -18,19 +18,23 @@ Local score
     and ``k`` other invalid incident cells scores ``-3 - 1000 i - k``, below
     every valid position: fewer inverted cells first, then fewer invalid ones
     score higher, which is what lets guarded smoothing untangle and never
-    tangle more.
+    tangle more.  With input floors (:func:`._floors.input_floors`), a position where
+    an anisotropic input cell shrinks below a fixed fraction of its input
+    area or edge length counts as an invalid (non-inverted) cell too.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
 from ..topology import Block, Topology
 from . import _fast
+from ._floors import Floors
 
 INVALID = -3.0
 INVERTED_WEIGHT = 1000.0
-
 
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
@@ -111,29 +115,33 @@ def _rowreduce(vals: np.ndarray, d, ufunc=np.minimum) -> np.ndarray:
 def _layout(topo: Topology, blk: Block, subset: np.ndarray | None):
     """Row layout of a block's incident cells (depends on the topology only, cached for whole blocks).
 
-    Returns (n, tri rows, tri rel, (v1, v2), quad rows, quad rel, (v1, v2, v3)) with the rows
-    reordered by :class:`_Rows` and the vertex columns as contiguous index arrays.
+    Returns (n, tri rows, tri rel, (v1, v2), quad rows, quad rel, (v1, v2, v3), tri ids, quad ids)
+    with the rows reordered by :class:`_Rows`, the vertex columns as contiguous index arrays and
+    the incidence row (index into ``topo.tri_verts`` / ``quad_verts``) of every row.
     """
     a = blk.nodes.start
     n = blk.size
     t_rel = topo.tri_loc[blk.tris] - a
     t_v = topo.tri_verts[blk.tris]
+    t_ids = np.arange(topo.tri_loc.shape[0])[blk.tris]
     q_rel = topo.quad_loc[blk.quads] - a
     q_v = topo.quad_verts[blk.quads]
+    q_ids = np.arange(topo.quad_loc.shape[0])[blk.quads]
     if subset is not None:
         remap = np.full(n, -1, np.int64)
         remap[subset] = np.arange(subset.shape[0])
         keep = remap[t_rel] >= 0
-        t_rel, t_v = remap[t_rel[keep]], t_v[keep]
+        t_rel, t_v, t_ids = remap[t_rel[keep]], t_v[keep], t_ids[keep]
         keep = remap[q_rel] >= 0
-        q_rel, q_v = remap[q_rel[keep]], q_v[keep]
+        q_rel, q_v, q_ids = remap[q_rel[keep]], q_v[keep], q_ids[keep]
         n = subset.shape[0]
     t_rows, q_rows = _Rows(t_rel, n), _Rows(q_rel, n)
     t_cols = tuple(np.ascontiguousarray(t_v[t_rows.perm, k]) for k in (1, 2))
     q_cols = tuple(np.ascontiguousarray(q_v[q_rows.perm, k]) for k in (1, 2, 3))
     t_rel, q_rel = t_rel[t_rows.perm], q_rel[q_rows.perm]
+    t_ids, q_ids = t_ids[t_rows.perm], q_ids[q_rows.perm]  # incidence row of each layout row
     t_rows.perm = q_rows.perm = None  # applied; not needed again
-    return n, t_rows, t_rel, t_cols, q_rows, q_rel, q_cols
+    return n, t_rows, t_rel, t_cols, q_rows, q_rel, q_cols, t_ids, q_ids
 
 
 class BlockGeometry:
@@ -150,7 +158,9 @@ class BlockGeometry:
     that the numpy temporaries stay in cache.
     """
 
-    def __init__(self, points: np.ndarray, topo: Topology, blk: Block, subset: np.ndarray | None = None):
+    def __init__(
+        self, points: np.ndarray, topo: Topology, blk: Block, subset: np.ndarray | None = None, floors: Floors | None = None
+    ):
         if subset is None:
             key = ("geometry", blk.nodes.start, blk.nodes.stop)
             layout = topo._cache.get(key)
@@ -158,7 +168,11 @@ class BlockGeometry:
                 layout = topo._cache[key] = _layout(topo, blk, None)
         else:
             layout = _layout(topo, blk, subset)
-        self.n, self._t, self.t_rel, t_v, self._q, self.q_rel, q_v = layout
+        self.n, self._t, self.t_rel, t_v, self._q, self.q_rel, q_v, t_ids, q_ids = layout
+        self.floors = floors is not None and floors.active
+        if self.floors:
+            self.t_fa, self.t_f1, self.t_f2 = (np.take(a, t_ids) for a in floors[:3])
+            self.q_fa, self.q_f1, self.q_f3 = (np.take(a, q_ids) for a in floors[3:6])
         with np.errstate(divide="ignore", invalid="ignore"):
             # triangles (p0 moving, p1, p2 fixed)
             p1, p2 = np.take(points, t_v[0], axis=0), np.take(points, t_v[1], axis=0)
@@ -184,6 +198,8 @@ class BlockGeometry:
 
     _TRI = ("t_x1", "t_y1", "t_x2", "t_y2", "t_ux", "t_uy", "t_l12")
     _QUAD = ("q_x1", "q_y1", "q_x3", "q_y3", "q_ux", "q_uy", "q_vx", "q_vy", "q_l12", "q_l23", "q_ok2", "q_cos2")
+    _TRI_FLOORS = ("t_fa", "t_f1", "t_f2")
+    _QUAD_FLOORS = ("q_fa", "q_f1", "q_f3")
 
     def restrict(self, subset: np.ndarray) -> BlockGeometry:
         """The same geometry for the (sorted) node indices ``subset`` only, without gathering again."""
@@ -191,7 +207,12 @@ class BlockGeometry:
         remap[subset] = np.arange(subset.shape[0])
         g = object.__new__(BlockGeometry)
         g.n = subset.shape[0]
-        for rel_name, rows_name, names in (("t_rel", "_t", self._TRI), ("q_rel", "_q", self._QUAD)):
+        g.floors = self.floors
+        fl = self.floors
+        for rel_name, rows_name, names in (
+            ("t_rel", "_t", self._TRI + (self._TRI_FLOORS if fl else ())),
+            ("q_rel", "_q", self._QUAD + (self._QUAD_FLOORS if fl else ())),
+        ):
             rel = remap[getattr(self, rel_name)]
             keep = np.flatnonzero(rel >= 0)
             rows = _Rows(rel[keep], g.n)
@@ -256,7 +277,10 @@ class BlockGeometry:
         fy2 = py - self.t_y2[r0:r1]
         l1 = np.sqrt(ex1 * ex1 + ey1 * ey1)
         l2 = np.sqrt(fx2 * fx2 + fy2 * fy2)
-        ok = ex1 * fy2 - ey1 * fx2 < 0
+        cr = ex1 * fy2 - ey1 * fx2
+        ok = cr < 0
+        if self.floors:  # -cr is twice the area
+            ok &= (-cr >= self.t_fa[r0:r1]) & (l1 >= self.t_f1[r0:r1]) & (l2 >= self.t_f2[r0:r1])
         vals = (ex1 * fx2 + ey1 * fy2) / (l1 * l2)
         np.minimum(vals, (ux * ex1 + uy * ey1) / (l12 * l1), out=vals)
         np.minimum(vals, (fx2 * ux + fy2 * uy) / (l2 * l12), out=vals)
@@ -279,6 +303,10 @@ class BlockGeometry:
         ok &= uy * ex1 - ux * ey1 > 0  # corner 1: e12 x (-e1)
         ok &= ex3 * vy - ey3 * vx > 0  # corner 3: e3 x e23
         ok &= self.q_ok2[r0:r1]
+        if self.floors:
+            x1, y1 = self.q_x1[r0:r1], self.q_y1[r0:r1]
+            a2 = (x1 + ux - px) * (self.q_y3[r0:r1] - y1) - (y1 + uy - py) * (self.q_x3[r0:r1] - x1)
+            ok &= (a2 >= self.q_fa[r0:r1]) & (l1 >= self.q_f1[r0:r1]) & (l3 >= self.q_f3[r0:r1])
         cm = np.abs((ex1 * ex3 + ey1 * ey3) / (l1 * l3))
         np.maximum(cm, np.abs((ux * ex1 + uy * ey1) / (l12 * l1)), out=cm)
         c3 = np.abs((ex3 * vx + ey3 * vy) / (l3 * l23))
@@ -321,11 +349,11 @@ class BlockGeometry:
         return 0.5 * (dx * fy - dy * fx)
 
 
-def geometry(points: np.ndarray, topo: Topology, blk: Block):
+def geometry(points: np.ndarray, topo: Topology, blk: Block, floors: Floors | None = None):
     """The block's geometry: a :class:`BlockGeometry`, or its compiled twin on large meshes (see :mod:`._fast`)."""
     if _fast.active(topo):
-        return _fast.FastGeometry(points, topo, blk)
-    return BlockGeometry(points, topo, blk)
+        return _fast.FastGeometry(points, topo, blk, floors=floors)
+    return BlockGeometry(points, topo, blk, floors=floors)
 
 
 # --------------------------------------------------------------------------

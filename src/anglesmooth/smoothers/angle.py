@@ -36,22 +36,68 @@ The paper's rule, as implemented (``guard=False``)
 
 The robust default (``guard=True``)
     The literal rule can invert cells on strongly graded meshes and end worse
-    than Laplacian there.  By default each node, with its colour class (nodes
-    of one class share no cell, so this test is exact), takes its angle
-    position A if that is no worse than staying and its incident cells' local
-    quality there is at least ``accept_above`` (20) degrees; otherwise it
-    chooses among five candidates -- A, the Laplacian position L, (A+L)/2,
-    the half step (C+A)/2 and its current position C -- the one whose incident
-    cells have the best local quality (smallest angle; for quads
-    ``min(angle, 180 - angle)``) and no inverted, degenerate or non-convex
-    cell.  Then the worst ``opt_fraction`` of the class's nodes
-    (lowest local score) take ``opt_iterations`` steps of the local
-    max-min-angle optimization (see :mod:`.optimization`), constrained so that
-    no incident cell shrinks below 0.8 or grows beyond 1/0.8 of its area: the
-    hybrid of Freitag (1997) and Canann, Tristano & Staten (1998).  The score
-    of a quad corner is ``min(angle, 180 - angle)`` (see :mod:`._local`).  Since C is always a
-    candidate, the local minimum angle of a node never decreases, so neither
-    does the mesh's minimum angle, and no cell is ever inverted.
+    than Laplacian there; a guard that only ever accepts improvements gets
+    stuck instead.  The default does, per colour class (nodes of one class
+    share no cell, so every test below is exact):
+
+    1. *Angle position where it is good enough.*  The node takes its angle
+       position A when the local quality there (the smallest angle of its
+       incident cells; quad corners count ``min(angle, 180 - angle)``) is at
+       least ``accept_above`` (20 deg) -- whether or not staying would score
+       higher.  This is most nodes of a decent mesh, and it is what keeps the
+       paper's size uniformity.  Nodes whose input cells were all well shaped
+       (quad corners within 30 deg of a right angle, triangle corners >= 40
+       deg, or a stretched well-shaped quad: see
+       :func:`._floors.input_floors`) take it only if it is also no worse than
+       staying, so the good parts of a mesh never get worse.
+    2. *Otherwise the best of five*: A, the Laplacian position L, (A+L)/2,
+       (A+C)/2 and the current position C, by local quality, no candidate
+       with an inverted, degenerate or non-convex cell (C is one of them).
+    3. *Stuck nodes*: where all four moves are invalid and staying is not,
+       the guarded Laplacian move (halved until valid).  A quad flattened
+       onto the boundary whose two free corners block each other gets out
+       only this way (every single move of either corner is invalid).
+    4. *Local optimization of the worst*: the worst ``opt_fraction`` (5 %)
+       of the class, if below ``opt_below`` (40 deg; 60 deg at a node of a
+       quad: two thirds of the ideal angle, so that quads are not left at 40
+       deg), take ``opt_iterations`` (3) compass-search steps of the local
+       max-min-angle optimization (see :mod:`.optimization`), keeping every
+       incident cell within [0.8, 1/0.8] of its area: the hybrid of Freitag
+       (1997) and Canann, Tristano & Staten (1998).
+
+    Why not "take A only if it is no worse than staying" (the former
+    default): that monotone acceptance is a local trap.  A sheared quad grid
+    gets better only through positions that are locally worse for a moment,
+    so jittered structured quad grids stopped at 48-59 deg where Laplacian
+    and the literal rule reach 90 deg, and on gmsh quad meshes the default
+    ended below Laplacian.  Thresholds are absolute angles for acceptance
+    (20 deg for quad nodes too: 30 deg, a third of the quad's ideal, raised
+    the paper-style mixed meshes' area ratio from 20 to 38 for 2 deg of
+    minimum angle on quads) and relative to the ideal angle for the
+    optimization (quad nodes: 60 instead of 40 deg, +2 deg minimum angle on
+    jittered toothed and recombined gmsh quad meshes).  Measured alternatives
+    that did not pay (10 passes, 3 seeds each):
+    choosing between A and L for every node by local quality (paper-style
+    tri area ratio 24.6, recombined quads no better), a quad corner score
+    normalized to the triangle scale (``(1 + |cos|) / 2``: -4 deg on the
+    toothed quad meshes), an area band relative to the node's mean cell area
+    (factor 0.5: -1.7 deg on paper-style triangles, -3.3 on paper-style
+    mixed meshes; 0.7: -11 deg on the toothed quads), an area band of 0.85
+    or 0.9 (area ratio of paper-style triangle meshes 13 / 12 instead of 17,
+    but graded meshes 16.7 / 13.7 instead of 18.4 deg), fewer optimization
+    steps or nodes (-1 to -3 deg), three more optimization steps for the
+    nodes still below 20 deg (+0.3 to +1 deg, not worth its cost).
+
+    Guarantees: no cell is ever inverted, made degenerate or (a quad) made
+    non-convex, and an already invalid neighbourhood never gets more invalid
+    cells (every candidate is checked exactly, and C is one of them); with
+    the driver's input floors no anisotropic cell shrinks below a quarter of
+    its input area or edge length.  *Not* guaranteed any more: that the
+    local minimum angle of a node never decreases, hence that the mesh's
+    minimum angle never decreases from one pass to the next (stages 1 and 3
+    may lower it on the way out of a trap; the nodes of well-shaped input
+    cells keep the monotone rule).  Figures: the quality matrix in README
+    and ``benchmarks/quality_matrix.py``.
 
 >>> import numpy as np
 >>> from anglesmooth.generate import structured_triangles
@@ -72,9 +118,26 @@ import numpy as np
 from ..topology import Topology
 from . import _fast
 from ._blocks import StepResult, run_blocks
+from ._floors import Floors
 from ._local import INVALID, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
 
 __all__ = ["step"]
+
+
+def _per_node(topo: Topology, blk, tri_deg: float, quad_deg: float) -> np.ndarray:
+    """Score threshold of each block node: ``tri_deg`` for nodes of triangles only, ``quad_deg`` for nodes of a quad.
+
+    Thresholds relative to the ideal angle (60 deg for triangles, 90 for quads) mean the same for
+    both; a node with both kinds of cell uses the quad's (its quad corners are the ones judged on
+    ``min(angle, 180 - angle)``).  Cached per block (topology only).
+    """
+    key = ("angle-thresholds", blk.nodes.start, blk.nodes.stop, float(tri_deg), float(quad_deg))
+    hit = topo._cache.get(key)
+    if hit is None:
+        hasq = np.bincount(topo.quad_loc[blk.quads] - blk.nodes.start, minlength=blk.size) > 0
+        lo, hi = -np.cos(np.radians(tri_deg)), -np.cos(np.radians(quad_deg))
+        hit = topo._cache[key] = np.where(hasq, hi, lo)
+    return hit
 
 
 def step(
@@ -89,7 +152,10 @@ def step(
     opt_iterations: int = 3,
     area_band: float | None = 0.8,
     opt_below: float = 40.0,
+    opt_below_quad: float = 60.0,
     accept_above: float = 20.0,
+    accept_above_quad: float = 20.0,
+    floors: Floors | None = None,
 ) -> StepResult:
     """One angle-based pass.
 
@@ -101,56 +167,79 @@ def step(
     hybrid : bool
         With ``guard``: choose among candidates and optimize the worst nodes
         (default).  False: only halve/refuse moves that would invalidate a cell.
-    opt_fraction, opt_iterations, opt_below : float, int, float
+    accept_above, accept_above_quad : float
+        A node takes its angle position when the local quality there (its
+        incident cells' smallest angle; quad corners ``min(angle, 180 - angle)``)
+        is at least this many degrees -- ``accept_above`` for a node of
+        triangles only, ``accept_above_quad`` for a node of a quad: a third of
+        the ideal angle (60, 90) for both.  Below it, the node chooses among
+        five candidates.  180 makes every node choose.
+    opt_fraction, opt_iterations, opt_below, opt_below_quad : float, int, float, float
         Share of each colour class that gets local optimization, its number of
-        steps, and the local quality (degrees) a node must be below to get it:
+        steps, and the local quality (degrees; triangle-only nodes / quad nodes,
+        two thirds of the ideal angle) a node must be below to get it:
         optimizing nodes that are already good only moves them along plateaus
-        of the max-min objective (sheared quads) and keeps a disturbed regular
-        mesh from returning to its place.
-    accept_above : float
-        A node whose angle position is no worse than staying and whose local
-        quality there is at least this many degrees takes it without trying
-        the other candidates (measured on the paper-style meshes: the same
-        quality as always trying all five, at a lower cost); 180 disables it.
+        of the max-min objective and keeps a disturbed regular mesh from
+        returning to its place.
+    floors : :class:`._floors.Floors` or None
+        Input floors of the guard (see :func:`._floors.input_floors`; the
+        driver passes them).
     area_band : float or None
         During that optimization a node's smallest incident cell keeps at least
         ``area_band`` of its area and its largest grows at most ``1/area_band``
         (see :func:`._local.optimize`); None lets the angle alone decide.
     """
 
-    good_score = -np.cos(np.radians(accept_above))
     fast = guard and hybrid and _fast.active(topo)
 
     def choose(pts, blk, cur, geom):
         """Stages 1 and 2: (positions, their local scores, number of invalid angle positions)."""
+        good = _per_node(topo, blk, accept_above, accept_above_quad)
+        keep = None
+        if floors is not None:
+            keep = floors.keep[blk.nodes]
+            keep = keep if keep.any() else None
         if fast:  # the same choice, fused per node in a compiled loop
-            new, best, refused = _fast.angle_choose(pts, topo, blk, good_score)
+            new, best, refused = _fast.angle_choose(pts, topo, blk, good, floors, keep)
             return new, best, int(refused.sum())
         target = angle_target(pts, topo, blk)
-        s_ac = geom.score(np.stack([target, cur]))
-        refused = int((s_ac[0] <= INVALID + 0.5).sum())
-        # stage 1: where the angle position is no worse than staying and already good, take it
-        take = (s_ac[0] >= s_ac[1]) & (s_ac[0] >= good_score)
-        new = np.where(take[:, None], target, cur)
-        best = np.where(take, s_ac[0], s_ac[1])
+        s_a = geom.score(target)
+        refused = int((s_a <= INVALID + 0.5).sum())
+        # stage 1: where the angle position is good enough, take it (even when staying scores higher;
+        # nodes whose input cells were all well shaped only when it is no worse than staying)
+        new, best = target, s_a
+        take = s_a >= good
+        if keep is not None:
+            k = np.flatnonzero(keep & take)
+            if k.size:
+                take[k] = s_a[k] >= geom.restrict(k).score(cur[k])
         rest = np.flatnonzero(~take)
         if rest.size:
             # stage 2: the others choose among all five candidates (the first best wins)
             lap = laplacian_target(pts, topo, blk)[rest]
             t, c = target[rest], cur[rest]
             sub = geom if rest.size == blk.size else geom.restrict(rest)
-            extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c)])
-            s = np.concatenate([s_ac[:1, rest], sub.score(extra), s_ac[1:, rest]])
-            cands = np.concatenate([t[None], extra, c[None]])
+            extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c), c])
+            s = np.concatenate([s_a[None, rest], sub.score(extra)])
+            cands = np.concatenate([t[None], extra])
             k = np.argmax(s, axis=0)
             idx = np.arange(rest.size)
+            new, best = target.copy(), s_a.copy()
             new[rest], best[rest] = cands[k, idx], s[k, idx]
+            # stage 3: where every move (full or half) is invalid and staying is not, the guarded
+            # Laplacian move (halved until valid): the way out of a flattened cell whose free
+            # corners block each other
+            stuck = np.flatnonzero((s[:4] <= INVALID + 0.5).all(axis=0) & (s[4] > INVALID + 0.5))
+            if stuck.size:
+                g3 = sub.restrict(stuck)
+                x, _ = first_valid(g3, c[stuck], lap[stuck])
+                new[rest[stuck]], best[rest[stuck]] = x, g3.score(x)
         return new, best, refused
 
     def update(pts, blk, cur):
         if not guard:
             return angle_target(pts, topo, blk), 0
-        geom = geometry(pts, topo, blk)
+        geom = geometry(pts, topo, blk, floors)
         if not hybrid:
             new, refused = first_valid(geom, cur, angle_target(pts, topo, blk))
             return new, refused.sum()
@@ -159,7 +248,8 @@ def step(
         n_opt = int(np.ceil(opt_fraction * blk.size)) if opt_iterations > 0 else 0
         if n_opt:
             worst = np.argpartition(best, n_opt - 1)[:n_opt] if n_opt < blk.size else idx
-            worst = np.sort(worst[best[worst] < -np.cos(np.radians(opt_below))])
+            below = _per_node(topo, blk, opt_below, opt_below_quad)
+            worst = np.sort(worst[best[worst] < below[worst]])
         if n_opt and worst.size:
             sub = geom.restrict(worst)
             scale = local_scale(pts, topo, blk, subset=worst)

@@ -23,19 +23,22 @@ import numpy as np
 
 from ..topology import Topology
 from ._blocks import StepResult, run_blocks
+from ._floors import Floors
 from ._local import first_valid, geometry, laplacian_target
 
 __all__ = ["step"]
 
 
-def step(points: np.ndarray, topo: Topology, /, *, guard: bool = True, order: str = "colour") -> StepResult:
-    """One Laplacian pass over all free nodes."""
+def step(
+    points: np.ndarray, topo: Topology, /, *, guard: bool = True, order: str = "colour", floors: Floors | None = None
+) -> StepResult:
+    """One Laplacian pass over all free nodes (``floors``: see :func:`._floors.input_floors`)."""
 
     def update(pts, blk, cur):
         target = laplacian_target(pts, topo, blk)
         if not guard:
             return target, 0
-        new, refused = first_valid(geometry(pts, topo, blk), cur, target)
+        new, refused = first_valid(geometry(pts, topo, blk, floors), cur, target)
         return new, refused.sum()
 
     return run_blocks(points, topo, order, update)

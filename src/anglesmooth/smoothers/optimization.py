@@ -28,18 +28,27 @@ import numpy as np
 
 from ..topology import Topology
 from ._blocks import StepResult, run_blocks
+from ._floors import Floors
 from ._local import geometry, local_scale, optimize
 
 __all__ = ["step"]
 
 
 def step(
-    points: np.ndarray, topo: Topology, /, *, guard: bool = True, order: str = "colour", iterations: int = 10
+    points: np.ndarray,
+    topo: Topology,
+    /,
+    *,
+    guard: bool = True,
+    order: str = "colour",
+    iterations: int = 10,
+    floors: Floors | None = None,
 ) -> StepResult:
-    """One pass of local max-min-angle optimization over all free nodes."""
+    """One pass of local max-min-angle optimization over all free nodes (``floors``: see
+    :func:`._floors.input_floors`)."""
 
     def update(pts, blk, cur):
-        geom = geometry(pts, topo, blk)
+        geom = geometry(pts, topo, blk, floors)
         new, _ = optimize(geom, cur, local_scale(pts, topo, blk), iterations)
         return new, 0
 

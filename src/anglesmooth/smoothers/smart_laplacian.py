@@ -23,17 +23,22 @@ import numpy as np
 
 from ..topology import Topology
 from ._blocks import StepResult, run_blocks
+from ._floors import Floors
 from ._local import geometry, laplacian_target
 
 __all__ = ["step"]
 
 
-def step(points: np.ndarray, topo: Topology, /, *, guard: bool = True, order: str = "colour") -> StepResult:
-    """One smart-Laplacian pass: Laplacian moves accepted only where the local minimum angle improves."""
+def step(
+    points: np.ndarray, topo: Topology, /, *, guard: bool = True, order: str = "colour", floors: Floors | None = None
+) -> StepResult:
+    """One smart-Laplacian pass: Laplacian moves accepted only where the local minimum angle improves.
+
+    ``floors``: see :func:`._floors.input_floors`."""
 
     def update(pts, blk, cur):
         target = laplacian_target(pts, topo, blk)
-        s = geometry(pts, topo, blk).score(np.stack([target, cur]))
+        s = geometry(pts, topo, blk, floors).score(np.stack([target, cur]))
         take = s[0] > s[1]
         moved = (target != cur).any(axis=1)
         return np.where(take[:, None], target, cur), int((moved & ~take).sum())

@@ -1,0 +1,144 @@
+"""Input floors: what keeps the anisotropic cells of a mesh from collapsing while it is smoothed.
+
+An angle-only objective cannot see a thin quad being flattened (a boundary-layer quad keeps its right
+angles while its height goes to zero), so every guarded method gets, from the driver, per incidence
+row the smallest area and edge lengths the row's cell may reach: a fixed fraction of its *input*
+values, for the cells that are anisotropic in the input.  The same pass over the input also marks
+the nodes whose cells are all well shaped (see :attr:`Floors.keep`).  The score kernels of
+:mod:`._local` and :mod:`._fastkernels` apply the floors.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ..topology import Topology
+
+__all__ = ["ANISO", "FLOOR", "Floors", "input_floors"]
+
+#: Input floors (see :func:`input_floors`): a cell whose longest edge is at least ``ANISO`` times its
+#: shortest in the input (a boundary-layer cell) may not get below ``FLOOR`` of its input area or
+#: have an edge at the moving node shorter than ``FLOOR`` of its input length.
+FLOOR = 0.25
+ANISO = 4.0
+#: Well-shaped input cells (see :func:`input_floors`): quad corners within KEEP_QUAD deg of a right
+#: angle, triangle corners at least KEEP_TRI deg.
+KEEP_QUAD = 30.0
+KEEP_TRI = 40.0
+KEEP_STRETCH = 1.5
+KEEP_RECT = 15.0
+
+
+class Floors(NamedTuple):
+    """Per incidence row (``topo.tri_verts`` / ``topo.quad_verts`` order): twice the smallest
+    allowed area and the smallest allowed lengths of the row's two edges at its node (0: no floor).
+    ``packed``: the same as one (6, rows) array, for the compiled kernels."""
+
+    t_area2: np.ndarray
+    t_e1: np.ndarray
+    t_e2: np.ndarray
+    q_area2: np.ndarray
+    q_e1: np.ndarray
+    q_e3: np.ndarray
+    packed: np.ndarray
+    keep: np.ndarray  # (n_free,) bool: every input cell of the node is well shaped (see below)
+
+    @property
+    def active(self) -> bool:
+        """True when some input cell is anisotropic (else nothing is checked)."""
+        return self.packed.size > 0
+
+
+def _cell_shape(x: np.ndarray, y: np.ndarray, cells: np.ndarray):
+    """(edge lengths (k, n), well shaped (n,), near-rectangular (n,) or None) of (n, k) ccw cells.
+
+    Edge m runs from corner m to m + 1; well shaped: every corner within ``KEEP_QUAD`` of a right
+    angle (quads) or at least ``KEEP_TRI`` (triangles); near-rectangular: within ``KEEP_RECT``.
+    """
+    k = cells.shape[1]
+    px = [np.take(x, cells[:, m]) for m in range(k)]
+    py = [np.take(y, cells[:, m]) for m in range(k)]
+    ex = [px[(m + 1) % k] - px[m] for m in range(k)]
+    ey = [py[(m + 1) % k] - py[m] for m in range(k)]
+    e = np.array([np.sqrt(ex[m] * ex[m] + ey[m] * ey[m]) for m in range(k)])
+    good = np.ones(cells.shape[0], bool)
+    rect = np.ones(cells.shape[0], bool) if k == 4 else None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for m in range(k):
+            j = m - 1  # corner m lies between edge m and the reversed edge m - 1
+            cos = -(ex[m] * ex[j] + ey[m] * ey[j]) / (e[m] * e[j])
+            ok = ex[j] * ey[m] - ey[j] * ex[m] > 0
+            if k == 4:
+                good &= (np.abs(cos) <= np.cos(np.radians(90.0 - KEEP_QUAD))) & ok
+                rect &= (np.abs(cos) <= np.cos(np.radians(90.0 - KEEP_RECT))) & ok
+            else:
+                good &= (cos <= np.cos(np.radians(KEEP_TRI))) & ok
+    return e, good, rect
+
+
+def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, aniso: float = ANISO) -> Floors:
+    """The floors that keep the anisotropic cells of the input ``points`` from collapsing, or None.
+
+    Angles alone cannot see a thin quad collapse: a boundary-layer quad 1e-3 thick keeps its right
+    angles while it is flattened to 1e-7.  So every guarded method, given these floors (the driver
+    computes them from the mesh it is asked to smooth), treats a position where an anisotropic
+    input cell (longest edge >= ``aniso`` x shortest) falls below ``fraction`` of its input area,
+    or one of its edges at the moving node below ``fraction`` of its input length, as invalid.
+    ``active`` is False when the input has no such cell (then nothing is checked, at no cost).
+
+    ``keep`` marks the free nodes whose input cells are all well shaped (quad corners within
+    ``KEEP_QUAD`` of a right angle, triangle corners at least ``KEEP_TRI``): the default ``angle``
+    moves them to the angle position only where that does not lower their local quality, so that
+    the good parts of a mesh (boundary layers made on purpose, already-good meshes) never get worse
+    (measured: the angle rule's 45:45 split of a quad's diagonal shears the outer boundary-layer
+    quads beside triangles from 93 to 129 deg).
+    """
+    n = points.shape[0]
+    x, y = np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
+    poor = np.zeros(n, bool)  # per point: some cell of it is not well shaped
+    keep_q = np.zeros(n, bool)  # per point: a corner of a near-rectangular stretched quad
+    an_node = np.zeros(n, bool)  # per point: a corner of an anisotropic cell
+    for cells in (topo.tri, topo.quad):
+        k = cells.shape[1]
+        if not cells.shape[0]:
+            continue
+        e, good, rect = _cell_shape(x, y, cells)
+        emax, emin = np.max(e, axis=0), np.min(e, axis=0)
+        an = emax >= aniso * emin
+        an_node[cells[an].ravel()] = True
+        poor[cells[~good].ravel()] = True
+        if k == 4:
+            keep_q[cells[rect & (emax >= KEEP_STRETCH * emin)].ravel()] = True
+    keep = ~poor[topo.free_nodes] | keep_q[topo.free_nodes]
+    out = []
+    for verts in (topo.tri_verts, topo.quad_verts):
+        k = verts.shape[1]
+        zero = np.zeros(verts.shape[0])
+        rows = np.flatnonzero(an_node[verts[:, 0]])  # rows of a node with an anisotropic cell
+        if not rows.size:
+            out += [zero, zero, zero]
+            continue
+        e, _, _ = _cell_shape(x, y, verts[rows])
+        an = np.max(e, axis=0) >= aniso * np.min(e, axis=0)
+        px = [np.take(x, verts[rows, m]) for m in range(k)]
+        py = [np.take(y, verts[rows, m]) for m in range(k)]
+        if k == 3:
+            area2 = (px[1] - px[0]) * (py[2] - py[0]) - (py[1] - py[0]) * (px[2] - px[0])
+        else:
+            area2 = (px[2] - px[0]) * (py[3] - py[1]) - (py[2] - py[0]) * (px[3] - px[1])
+        f = np.where(an, fraction, 0.0)
+        cols = []
+        for v in (f * np.abs(area2), f * e[0], f * e[k - 1]):
+            c = zero.copy()
+            c[rows] = v
+            cols.append(c)
+        out += cols
+    if an_node.any():
+        packed = np.zeros((6, max(out[0].shape[0], out[3].shape[0])))
+        for k, a in enumerate(out):
+            packed[k, : a.shape[0]] = a
+    else:
+        packed = np.zeros((0, 0))
+    return Floors(*out, packed, keep)
