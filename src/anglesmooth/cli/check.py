@@ -10,10 +10,10 @@ from .. import report
 from ..batch import FileResult, check_file, check_files
 from . import formats
 from .errors import Usage, error, handle_errors
-from .many import exclude_option, executor, expand_inputs, jobs_option, scheduler_option, worst_exit
+from .many import exclude_option, executor, expand_inputs, finish, jobs_option, scheduler_option, worst_exit
 from .meshfiles import STDIO, display, plan_outputs, read_mesh
 from .options import debug_option, gate_options, input_format_option, json_option, quiet_option
-from .outputs import emit_json, gate_thresholds, make_console, note_stale, plain
+from .outputs import gate_thresholds, make_console, note_stale, plain
 
 
 @click.command("check")
@@ -63,14 +63,8 @@ def check_cmd(inputs, input_format, exclude, jobs, scheduler, json_path, report_
     formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=json_path == STDIO)
     errors = any(e["error"] for e in entries)
     passed = not errors and all(e["passed"] for e in entries)
-    with outs:
-        emit_json(json_path, report.check_json(entries, passed))
-        if junit_path:
-            formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth check"))
-        outs.commit()
-    code = worst_exit(results, exit_zero)
-    if code:
-        raise click.exceptions.Exit(code)
+    finish(outs, json_path, report.check_json(entries, passed), junit_path, outcomes, "anglesmooth check",
+           worst_exit(results, exit_zero))
 
 
 def _entry(result: FileResult, debug: bool) -> tuple[dict, list[str]]:
@@ -80,6 +74,7 @@ def _entry(result: FileResult, debug: bool) -> tuple[dict, list[str]]:
             sys.stderr.write(result.traceback)
         error(result.error_line)
     return result.entry, list(result.messages)
+
 
 
 def check_one(path: str, input_format, thresholds: dict, debug: bool) -> tuple[dict, list[str]]:

@@ -164,6 +164,19 @@ def worst_exit(results, exit_zero: bool) -> int:
     return max(codes, default=0)
 
 
+def finish(outs, json_path: str | None, document: dict, junit_path: str | None, outcomes, suite: str,
+           code: int) -> None:
+    """The tail of a many-file run: the JSON report and the JUnit XML staged in ``outs`` and committed together,
+    then exit ``code`` (nothing when 0)."""
+    with outs:
+        emit_json(json_path, document)
+        if junit_path:
+            formats.stage_text(junit_path, formats.junit_xml(outcomes, suite))
+        outs.commit()
+    if code:
+        raise click.exceptions.Exit(code)
+
+
 def _outcome(r: batch.FileResult) -> formats.Outcome:
     return formats.Outcome(r.input if r.error is not None else r.output, [Gate(**g) for g in r.gates], r.error)
 
@@ -212,11 +225,5 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
     outcomes = [_outcome(r) for r in results]
     if report_format != "table":
         formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=json_path == STDIO)
-    with reports:
-        emit_json(json_path, files_json(results, elapsed))
-        if junit_path:
-            formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth smooth"))
-        reports.commit()
-    code = worst_exit(results, exit_zero)
-    if code:
-        raise click.exceptions.Exit(code)
+    finish(reports, json_path, files_json(results, elapsed), junit_path, outcomes, "anglesmooth smooth",
+           worst_exit(results, exit_zero))
