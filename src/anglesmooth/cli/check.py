@@ -7,7 +7,7 @@ import sys
 import click
 
 from .. import report
-from ..batch import FileResult, check_file, check_files
+from ..batch import FileResult, check_files
 from . import formats
 from .errors import Usage, error, handle_errors
 from .many import exclude_option, executor, expand_inputs, finish, jobs_option, scheduler_option, worst_exit
@@ -75,9 +75,3 @@ def _entry(result: FileResult, debug: bool) -> tuple[dict, list[str]]:
         error(result.error_line)
     return result.entry, list(result.messages)
 
-
-
-def check_one(path: str, input_format, thresholds: dict, debug: bool) -> tuple[dict, list[str]]:
-    """Read and measure one file: its JSON entry and its failed-gate lines (an unreadable file: an error entry)."""
-    return _entry(check_file(path, input_format=input_format, thresholds=thresholds, reader=read_mesh,
-                             name=display(path)), debug)
