@@ -9,7 +9,6 @@ results with their timings removed.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import pickle
@@ -20,7 +19,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from cli_runner import cli_runner
+from cli_runner import cli_runner, digest
 
 from anglesmooth import FileResult, Mesh2D, check_files, read, smooth_files
 from anglesmooth.batch import BatchError, find_mesh_files, output_name
@@ -34,10 +33,6 @@ ENV = dict(os.environ, PYTHONPATH=os.pathsep.join([SRC, os.environ.get("PYTHONPA
 
 def run(*args):
     return cli_runner().invoke(cli, [str(a) for a in args])
-
-
-def digest(path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def tree(d: Path) -> dict[str, str]:

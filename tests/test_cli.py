@@ -6,7 +6,6 @@ so the whole module runs in a few seconds.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import shutil
@@ -18,7 +17,7 @@ import time
 import meshio
 import numpy as np
 import pytest
-from cli_runner import cli_runner
+from cli_runner import cli_runner, digest
 
 import anglesmooth
 from anglesmooth import SMOOTHERS, build_topology, read, write
@@ -42,10 +41,6 @@ SMOOTH_KEYS = {
 
 def run(*args, input=None):
     return cli_runner().invoke(cli, [str(a) for a in args], input=input)
-
-
-def digest(path) -> str:
-    return hashlib.sha256(open(path, "rb").read()).hexdigest()
 
 
 def one_error_line(result) -> str:

@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 from cli_runner import cli_runner
 from gmsh_check import gmsh_view, same_for_gmsh
+from meshes import gmsh_files, gmsh_two_squares
 
 import anglesmooth
 from anglesmooth import io as asio
@@ -79,13 +80,7 @@ def _partial_recombination():
 
 def _unnamed_two_dims():
     """Two squares, physical numbers without names, number 7 used in dimensions 1 and 2."""
-    occ = gmsh.model.occ
-    a = occ.addRectangle(0, 0, 0, 1, 1)
-    b = occ.addRectangle(1, 0, 0, 1, 1)
-    occ.fragment([(2, a)], [(2, b)])
-    occ.synchronize()
-    left = [t for _, t in gmsh.model.getEntities(2) if gmsh.model.occ.getCenterOfMass(2, t)[0] < 1]
-    right = [t for _, t in gmsh.model.getEntities(2) if gmsh.model.occ.getCenterOfMass(2, t)[0] > 1]
+    left, right = gmsh_two_squares()
     mid = [t for _, t in gmsh.model.getEntities(1) if abs(gmsh.model.occ.getCenterOfMass(1, t)[0] - 1) < 1e-9]
     gmsh.model.addPhysicalGroup(2, left, 7)
     gmsh.model.addPhysicalGroup(2, right, 8)
@@ -121,12 +116,7 @@ def _periodic():
 
 def _save_all():
     """Two squares, only the right one in a physical group, saved with Mesh.SaveAll = 1."""
-    occ = gmsh.model.occ
-    a = occ.addRectangle(0, 0, 0, 1, 1)
-    b = occ.addRectangle(1, 0, 0, 1, 1)
-    occ.fragment([(2, a)], [(2, b)])
-    occ.synchronize()
-    right = [t for _, t in gmsh.model.getEntities(2) if gmsh.model.occ.getCenterOfMass(2, t)[0] > 1]
+    _, right = gmsh_two_squares()
     gmsh.model.addPhysicalGroup(2, right, 5, name="right")
     gmsh.option.setNumber("Mesh.SaveAll", 1)
     gmsh.option.setNumber("Mesh.MeshSizeMax", 0.2)
@@ -173,27 +163,7 @@ VARIANTS = {"41a": (4.1, 0), "41b": (4.1, 1), "22a": (2.2, 0)}
 
 @pytest.fixture(scope="session")
 def msh(tmp_path_factory):
-    root = tmp_path_factory.mktemp("gmsh_workflows")
-    out = {}
-    gmsh.initialize(readConfigFiles=False)
-    try:
-        for name, build in MODELS.items():
-            gmsh.clear()
-            gmsh.option.restoreDefaults()
-            gmsh.option.setNumber("General.Terminal", 0)
-            gmsh.model.add(name)
-            build()
-            gmsh.model.mesh.generate(2)
-            if name == "moved":
-                _moved_by_gmsh()
-            for var, (version, binary) in VARIANTS.items():
-                gmsh.option.setNumber("Mesh.MshFileVersion", version)
-                gmsh.option.setNumber("Mesh.Binary", binary)
-                out[name, var] = root / f"{name}_{var}.msh"
-                gmsh.write(str(out[name, var]))
-    finally:
-        gmsh.finalize()
-    return out
+    return gmsh_files(tmp_path_factory.mktemp("gmsh_workflows"), MODELS, VARIANTS, {"moved": _moved_by_gmsh})
 
 
 def run(*args):

@@ -15,7 +15,6 @@ Devices are made with ``mknod`` in the test's own directory, which needs root; C
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import resource
@@ -32,7 +31,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from cli_runner import cli_runner
+from cli_runner import PREFIX, cli_runner, digest, error_line, snapshot
 
 from anglesmooth import _paths, read, smooth, write
 from anglesmooth.cli import cli
@@ -41,41 +40,14 @@ from anglesmooth.generate import random_delaunay
 SRC = str(Path(__file__).resolve().parents[1] / "src")
 ROOT = os.geteuid() == 0
 needs_root = pytest.mark.skipif(not ROOT, reason="mknod and chown need root (CI runs as root)")
-PREFIX = "anglesmooth: error: "
-
-
 def env(**extra) -> dict:
     e = dict(os.environ, PYTHONPATH=SRC + os.pathsep + os.environ.get("PYTHONPATH", ""))
     e.update(extra)
     return e
 
 
-def digest(path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
-def snapshot(d: Path) -> dict:
-    out = {}
-    for p in sorted(d.rglob("*")):
-        if p.is_symlink():
-            out[str(p.relative_to(d))] = "->" + os.readlink(p)
-        elif p.is_file():
-            out[str(p.relative_to(d))] = digest(p)
-        else:
-            out[str(p.relative_to(d))] = stat.S_IFMT(p.lstat().st_mode)
-    return out
-
-
 def invoke(*args, **kwargs):
     return cli_runner().invoke(cli, [str(a) for a in args], **kwargs)
-
-
-def error_line(stderr: str) -> str:
-    lines = [line for line in stderr.splitlines() if line.strip()]
-    assert len(lines) == 1, stderr
-    assert lines[0].startswith(PREFIX), stderr
-    assert "Traceback" not in stderr
-    return lines[0]
 
 
 def run_cli(*args, cwd=None, timeout=120, **kwargs) -> subprocess.CompletedProcess:
