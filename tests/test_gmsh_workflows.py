@@ -418,6 +418,25 @@ def test_fix_group_by_number(msh, tmp_path, var):
     assert np.array_equal(meshio.read(tmp_path / "p.vtu").points[m.physical[2, 7]], src[m.physical[2, 7]])
 
 
+def test_many_files_find_groups_by_number_as_one_file_does(msh, tmp_path):
+    """--fix-group 1:7 / 8 in a many-file run (--output-dir) fixes what it fixes in a one-file run, bit for bit."""
+    inputs = [msh["unnamed", "41a"], msh["unnamed", "22a"]]
+    r = run(*inputs, "--output-dir", tmp_path / "many", "-q", "--fix-group", "1:7", "--output-format", "vtu")
+    assert r.exit_code == 0, r.stderr
+    m = anglesmooth.read(inputs[0])
+    mid = m.physical[1, 7]
+    for path in inputs:
+        one = tmp_path / f"one_{path.stem}.vtu"
+        assert run(path, one, "-q", "--fix-group", "1:7").exit_code == 0
+        got = meshio.read(tmp_path / "many" / f"{path.stem}.vtu").points
+        assert np.array_equal(got, meshio.read(one).points)
+        assert np.array_equal(got[mid], meshio.read(path).points[mid])
+    r = run(*inputs, "--output-dir", tmp_path / "bad", "--fix-group", "7")
+    assert r.exit_code == 2
+    lines = [line for line in r.stderr.splitlines() if "error" in line]
+    assert len(lines) == 2 and all("write 1:7 or 2:7" in line for line in lines), r.stderr
+
+
 def test_fix_group_errors_list_names_and_numbers(msh, tmp_path):
     r = run(msh["unnamed", "41a"], tmp_path / "o.vtu", "--fix-group", "7")
     assert r.exit_code == 2 and "write 1:7 or 2:7" in one_error(r)

@@ -224,39 +224,3 @@ def fix_node_indices(mesh, numbers: np.ndarray, numbering: str) -> np.ndarray:
         raise Usage(f"--fix-nodes: gmsh node tag {bad} is not in the mesh (--node-numbering gmsh: 1-based tags "
                     f"{int(tags.min())}..{int(tags.max())})")
     return order[pos]
-
-
-def _group_nodes(mesh, name: str) -> np.ndarray:
-    """A group by name, by gmsh physical number ('11') or by dim:number ('2:11')."""
-    if name in mesh.groups:
-        return mesh.groups[name]
-    physical = getattr(mesh, "physical", {}) or {}
-    text = name.strip()
-    if text.isdigit():
-        hits = [k for k in physical if k[1] == int(text)]
-        if len(hits) == 1:
-            return physical[hits[0]]
-        if len(hits) > 1:
-            choices = " or ".join(f"{d}:{t}" for d, t in sorted(hits))
-            raise Usage(f"--fix-group: physical number {text} exists in several dimensions; write {choices}")
-    elif text.count(":") == 1 and all(part.strip().isdigit() for part in text.split(":")):
-        d, t = (int(part) for part in text.split(":"))
-        if (d, t) in physical:
-            return physical[(d, t)]
-    names = ", ".join(repr(k) for k in sorted(mesh.groups)) or "none"
-    numbers = ", ".join(f"{d}:{t}" for d, t in sorted(physical)) or "none"
-    raise Usage(f"--fix-group: no group {name!r} in the mesh; names: {names}; physical numbers (dim:number): {numbers}")
-
-
-def extra_fixed(mesh, groups: tuple[str, ...], nodes: np.ndarray | None) -> np.ndarray | None:
-    if not groups and nodes is None:
-        return None
-    mask = np.zeros(mesh.n_points, dtype=bool)
-    for name in groups:
-        mask[_group_nodes(mesh, name)] = True
-    if nodes is not None and nodes.size:
-        bad = nodes[(nodes < 0) | (nodes >= mesh.n_points)]
-        if bad.size:
-            raise Usage(f"--fix-nodes: node {int(bad[0])} out of range (the mesh has nodes 0..{mesh.n_points - 1})")
-        mask[nodes] = True
-    return mask

@@ -6,6 +6,7 @@ import click
 
 from .. import report
 from ..driver import smooth as run_smooth
+from ..fixing import fixed_mask
 from ..gates import evaluate
 from ..quality import summarize
 from ..smoothers import SMOOTHERS
@@ -15,7 +16,7 @@ from ..topology import build_topology
 from . import formats
 from .errors import EXIT_GATE, Usage, handle_errors
 from .many import jobs_option, scheduler_option, smooth_many, wants_many
-from .meshfiles import (STDIO, check_output, check_paths, display, extra_fixed, fix_node_indices, read_fix_nodes,
+from .meshfiles import (STDIO, check_output, check_paths, display, fix_node_indices, read_fix_nodes,
                         read_mesh, write_mesh)
 from .options import (binary_option, debug_option, gate_options, input_format_option, json_option,
                       no_guard_option, node_numbering_option, order_option, output_format_option, quiet_option)
@@ -114,7 +115,7 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
         mesh = read_mesh(input, input_format)
         check_output(mesh, output, output_format, binary)  # the output format can hold the mesh: fail before smoothing
         user_nodes = fix_node_indices(mesh, user_nodes, node_numbering) if user_nodes is not None else None
-        topo = build_topology(mesh, extra_fixed(mesh, fix_group, user_nodes))
+        topo = build_topology(mesh, fixed_mask(mesh, fix_group, user_nodes))
         before = summarize(mesh.points, topo)
         warn_invalid(console, name, before)
         note_fast(console, topo, passes)
