@@ -22,7 +22,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from cli_runner import cli_runner
+from cli_runner import cli_runner, snapshot
 from gmsh_check import gmsh_view, same_for_gmsh
 from meshes import gmsh_files, gmsh_two_squares
 
@@ -560,24 +560,32 @@ def test_msh_vtu_msh_brings_physical_names_back(msh, tmp_path):
 # ---------------------------------------------------------------------------
 
 
-def test_glob_accident_does_not_destroy_the_second_mesh(msh, tmp_path):
+def test_an_existing_output_is_replaced_the_input_never(msh, tmp_path):
+    """An existing OUTPUT of the input's format is replaced, as gmsh -o and cp do (a re-run, a Makefile rule);
+    the input itself (by name, symlink or hard link) needs --force; nothing else in the directory changes."""
     a, b = tmp_path / "a.msh", tmp_path / "b.msh"
     a.write_bytes(msh["bl", "41a"].read_bytes())
     b.write_bytes(msh["partial", "41a"].read_bytes())
-    before = b.read_bytes()
-    r = run(a, b)  # what 'anglesmooth *.msh' gives
-    assert r.exit_code == 2
-    assert "exists and is a gmsh file like the input" in one_error(r) and "--force" in one_error(r)
-    assert b.read_bytes() == before
-    r = run(a, b, "--force", "-q")
-    assert r.exit_code == 0 and b.read_bytes() != before
-    # an existing output of another format (a previous result) is replaced as before
-    r = run(a, tmp_path / "o.vtu", "-q")
-    assert r.exit_code == 0
-    r = run(a, tmp_path / "o.vtu", "-q", "--passes", "1")
-    assert r.exit_code == 0
-    help_text = cli_runner().invoke(cli, ["smooth", "--help"]).stdout
-    assert "existing OUTPUT of the input's format" in " ".join(help_text.split())
+    os.chmod(b, 0o640)
+    (tmp_path / "sym.msh").symlink_to(a)
+    os.link(a, tmp_path / "hard.msh")
+    before = snapshot(tmp_path)
+    r = run(a, b, "-q")
+    assert r.exit_code == 0, r.stderr
+    after = snapshot(tmp_path)
+    assert after["b.msh"] != before["b.msh"]
+    assert {k: v for k, v in after.items() if k != "b.msh"} == {k: v for k, v in before.items() if k != "b.msh"}
+    assert os.stat(b).st_mode & 0o777 == 0o640
+    assert anglesmooth.read(b).n_cells == anglesmooth.read(a).n_cells  # a's mesh, smoothed
+    first = b.read_bytes()
+    r = run(a, b, "-q")  # run again: the same result replaces the previous one
+    assert r.exit_code == 0 and b.read_bytes() == first
+    for name in ("a.msh", "sym.msh", "hard.msh"):
+        r = run(a, tmp_path / name)
+        assert r.exit_code == 2 and "is the input file; pass --force or --in-place" in one_error(r)
+    assert snapshot(tmp_path) == after
+    help_text = " ".join(cli_runner().invoke(cli, ["smooth", "--help"]).stdout.split())
+    assert "An existing OUTPUT is replaced" in help_text
 
 
 # ---------------------------------------------------------------------------

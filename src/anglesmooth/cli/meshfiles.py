@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import os
 import sys
 import tempfile
 from pathlib import Path
@@ -131,41 +130,14 @@ def check_paths(input, output, *, force, in_place, input_format, output_format, 
         raise Usage("writing to stdout ('-') needs --output-format (e.g. --output-format vtu)")
     if output == STDIO and json_path == STDIO:
         raise Usage("OUTPUT '-' and --json - cannot both use stdout")
-    in_fmt = format_name(input_format, "--input-format")
-    out_fmt = format_name(output_format, "--output-format")
+    format_name(input_format, "--input-format")  # an unknown name is a usage error before any work
+    format_name(output_format, "--output-format")
+    # an existing OUTPUT is replaced (atomically, see _paths), as gmsh -o, meshio convert, cp and sort -o do;
+    # only the input itself (the same file by path, symlink or hard link) needs --force or --in-place
     outs = plan_outputs({"OUTPUT": output, "--json": json_path, "--plot": plot, "--junit-xml": junit_path},
                         [("INPUT", input), ("--fix-nodes", fix_nodes), ("--gate-file", gate_file)],
                         may_replace_input=("OUTPUT",) if force or in_place else ())
-    # after the collision checks (an OUTPUT that is an input is reported as such): the glob accident
-    if output != STDIO and not (force or in_place) and os.path.isfile(output) and not _same_file(input, output):
-        kind = _same_kind(input, in_fmt, output, out_fmt)
-        if kind:
-            raise Usage(f"OUTPUT '{output}' exists and is a {kind} file like the input (two inputs from a shell "
-                        f"glob?); pass --force to overwrite it")
     return output, outs
-
-
-def _family(fmt: str | None) -> str | None:
-    return "gmsh" if fmt and fmt.startswith("gmsh") else fmt
-
-
-def _same_kind(input: str, in_fmt: str | None, output: str, out_fmt: str | None) -> str | None:
-    """The format name when the existing OUTPUT has the input's format (as their names tell), else None."""
-    from .. import io as mesh_io
-
-    try:
-        a = _family(in_fmt or (mesh_io.output_format(input) if input != STDIO else None))
-        b = _family(out_fmt or mesh_io.output_format(output))
-    except AngleSmoothError:
-        return None
-    return a if a is not None and a == b else None
-
-
-def _same_file(a: str, b: str) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return False
 
 
 def plan_outputs(outputs: dict, inputs: list, may_replace_input=()) -> _paths.Outputs:

@@ -43,7 +43,7 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
                    "--node-numbering gmsh.")
 @node_numbering_option
 @click.option("--force", is_flag=True,
-              help="Allow OUTPUT to be the input file, or an existing file of the input's format (see above).")
+              help="Allow OUTPUT to be the input file (a path, symlink or hard link to it); see --in-place.")
 @click.option("--in-place", is_flag=True, help="Overwrite INPUT (give no OUTPUT).")
 @input_format_option
 @output_format_option
@@ -72,9 +72,10 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
                report_format, junit_path, plot, progress, threads, quiet, debug, **gate_opts) -> None:
     """Smooth INPUT and write OUTPUT ('-' for stdin/stdout); gates apply to the result, after writing it.
 
-    An existing OUTPUT of the input's format (by its extension: 'anglesmooth a.msh b.msh' where b.msh exists,
-    as a shell glob gives) is taken for another input and not overwritten without --force (exit 2); an existing
-    OUTPUT of another format (a previous result, e.g. out.vtu from in.msh) is replaced.
+    An existing OUTPUT is replaced (atomically, keeping its owner and mode), as gmsh -o and cp do; OUTPUT
+    may be the input file itself only with --force or --in-place (exit 2 otherwise).  Two mesh files alone
+    mean INPUT OUTPUT, also when a shell glob gives them ('anglesmooth *.msh'): give several files with
+    --output-dir or --suffix.
 
     Several INPUTs (files, directories, globs) with --output-dir DIR, --suffix or --in-place smooth each
     file (--jobs N in parallel processes, --scheduler on a Dask cluster) and end with a summary table.
