@@ -215,6 +215,17 @@ def test_in_place(meshes, tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["m.vtu"]  # no temporary files left
 
 
+def test_in_place_refuses_another_format(meshes, tmp_path):
+    """--in-place --output-format vtu on a .msh wrote VTU into the .msh: the input was lost (as many files refuse)."""
+    src = tmp_path / "m.msh"
+    shutil.copy(meshes["msh"], src)
+    h = digest(src)
+    for fmt in ("vtu", "gmsh22"):
+        result = run(src, "--in-place", "--output-format", fmt)
+        assert result.exit_code == 2 and "--in-place keeps the input's format" in one_error_line(result)
+    assert digest(src) == h and sorted(os.listdir(tmp_path)) == ["m.msh"]
+
+
 # ------------------------------------------------------------------ pipelines
 
 
@@ -261,7 +272,8 @@ def test_usage_errors_after_parsing(meshes, tmp_path, args, needle):
     assert result.stdout == ""
 
 
-@pytest.mark.parametrize("args", [["--method", "nope"], ["--passes", "-1"], ["--order", "random"], ["--bogus"]])
+@pytest.mark.parametrize("args", [["--method", "nope"], ["--passes", "-1"], ["--order", "random"], ["--bogus"],
+                                  ["--tol", "nan"], ["--tol", "-1"]])
 def test_click_usage_errors_exit_2(meshes, tmp_path, args):
     result = run(meshes["msh"], tmp_path / "o.vtu", *args)
     assert result.exit_code == 2

@@ -121,6 +121,8 @@ def check_paths(input, output, *, force, in_place, input_format, output_format, 
             raise Usage("--in-place writes back to INPUT; do not give an OUTPUT")
         if input == STDIO:
             raise Usage("--in-place needs an INPUT file, not '-'")
+        if output_format:  # as for many files: another format under the input's name would lose the input
+            raise Usage("--in-place keeps the input's format; do not give --output-format")
         output = input
     if output is None:
         raise Usage("missing OUTPUT (a file, '-' for stdout, or --in-place to overwrite INPUT)")

@@ -18,8 +18,9 @@ from .errors import EXIT_GATE, Usage, handle_errors
 from .many import jobs_option, scheduler_option, smooth_many, wants_many
 from .meshfiles import (STDIO, check_output, check_paths, display, fix_node_indices, read_fix_nodes,
                         read_mesh, write_mesh)
-from .options import (binary_option, debug_option, gate_options, input_format_option, json_option,
-                      no_guard_option, node_numbering_option, order_option, output_format_option, quiet_option)
+from .options import (FiniteFloat, binary_option, debug_option, gate_options, input_format_option, json_option,
+                      no_guard_option, node_numbering_option, order_option, output_format_option,
+                      quiet_option)
 from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, note_stale, plain,
                       progress_bar, warn_invalid)
 
@@ -31,7 +32,7 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
 @click.option("--method", "-m", type=click.Choice(list(SMOOTHERS)), default="angle", show_default=True,
               help="Smoothing method (from the registry).")
 @click.option("--passes", "-n", type=click.IntRange(min=0), default=10, show_default=True, help="Maximum passes.")
-@click.option("--tol", type=click.FloatRange(min=0), metavar="T",
+@click.option("--tol", type=FiniteFloat(min=0), metavar="T",
               help="Stop once a pass moves no node by more than T x the mean edge length.")
 @no_guard_option
 @order_option
