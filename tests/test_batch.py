@@ -117,6 +117,19 @@ def test_suffix_and_output_format_name_the_outputs(work, monkeypatch):
     assert {"a.smooth.msh", "b.smooth.vtu"} <= set(os.listdir(work / "in"))
 
 
+@pytest.mark.parametrize("suffix", ["/x", "/../../x", "_s/"])
+def test_a_suffix_with_a_slash_is_a_usage_error(work, monkeypatch, suffix):
+    """--suffix /x was an internal error (exit 4, ValueError from the path library)."""
+    monkeypatch.chdir(work)
+    before = tree(work)
+    result = run("in/a.msh", "in/b.vtu", "--suffix", suffix)
+    assert result.exit_code == 2
+    assert error_lines(result.stderr) == [f"anglesmooth: error: the suffix {suffix!r} (--suffix) is added to each "
+                                          "file name and must not contain '/' (put the outputs in another "
+                                          "directory with --output-dir)"]
+    assert tree(work) == before
+
+
 def test_directory_input_is_walked_and_mirrored(work, single, monkeypatch):
     monkeypatch.chdir(work)
     result = run("in", "--output-dir", "out", "-q")
