@@ -272,6 +272,18 @@ def test_usage_errors_after_parsing(meshes, tmp_path, args, needle):
     assert result.stdout == ""
 
 
+@pytest.mark.parametrize("command", ["check", "compare"])
+def test_options_before_a_command_name_say_so(meshes, tmp_path, monkeypatch, command):
+    """'anglesmooth --quiet check a.msh' implies smooth with INPUT 'check': was exit 3 'cannot read 'check''."""
+    monkeypatch.chdir(tmp_path)
+    result = run("--quiet", command, meshes["msh"])
+    assert result.exit_code == 2
+    assert f"to run the {command} command, give the options after its name" in one_error_line(result)
+    assert os.listdir(tmp_path) == []
+    shutil.copy(meshes["msh"], tmp_path / command)  # a mesh file of that name is still smoothed
+    assert run("-q", command, "o.msh").exit_code == 0 and (tmp_path / "o.msh").exists()
+
+
 @pytest.mark.parametrize("args", [["--method", "nope"], ["--passes", "-1"], ["--order", "random"], ["--bogus"],
                                   ["--tol", "nan"], ["--tol", "-1"]])
 def test_click_usage_errors_exit_2(meshes, tmp_path, args):

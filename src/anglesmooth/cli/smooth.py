@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import click
 
 from .. import report
@@ -23,6 +25,10 @@ from .options import (FiniteFloat, binary_option, debug_option, gate_options, in
                       quiet_option)
 from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, note_stale, plain,
                       progress_bar, warn_invalid)
+
+
+#: The other commands' names: the INPUT of an implied ``smooth`` when options come before the command.
+COMMANDS = ("check", "compare", "schema", "smooth")
 
 
 @click.command("smooth")
@@ -82,6 +88,9 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
     file (--jobs N in parallel processes, --scheduler on a Dask cluster) and end with a summary table.
     """
     console = make_console(quiet)
+    if input in COMMANDS and not os.path.lexists(input):  # 'anglesmooth --quiet check a.msh': options came first
+        raise Usage(f"no mesh file '{input}': to run the {input} command, give the options after its name "
+                    f"('anglesmooth {input} ARGS... [OPTIONS]')")
     if wants_many(input, output, more, output_dir=output_dir, suffix=suffix, jobs=jobs, scheduler=scheduler,
                   in_place=in_place):
         one_file_only = {"--node-numbering gmsh": node_numbering != "index", "--binary/--ascii": binary is not None,
