@@ -213,6 +213,22 @@ def test_github_format_goes_to_stderr_when_stdout_carries_the_report(meshes):
     assert any(x.startswith("::error file=") for x in result.stderr.splitlines())
 
 
+@pytest.mark.parametrize("report", [["--json", "/dev/stdout"], ["--junit-xml", "/dev/fd/1"]])
+def test_github_format_goes_to_stderr_when_a_report_names_stdout_by_path(meshes, report):
+    """--json /dev/stdout is stdout as much as --json -: the workflow commands must not land inside the JSON."""
+    proc = subprocess.run([sys.executable, "-m", "anglesmooth", "check", str(meshes["tangled"]), "--format", "github",
+                           "-q", *report], capture_output=True, timeout=120,
+                          env={**os.environ, "PYTHONPATH": str(SRC)})
+    assert proc.returncode == 1, proc.stderr
+    out = proc.stdout.decode()
+    assert "::" not in out
+    if report[0] == "--json":
+        json.loads(out)
+    else:
+        ET.fromstring(out)
+    assert any(x.startswith("::error file=") for x in proc.stderr.decode().splitlines())
+
+
 def test_github_format_on_smoothing_with_gates(meshes, tmp_path):
     out = tmp_path / "o.vtu"
     result = run(meshes["mixed"], out, "-n", "2", "--min-angle", "89", "--format", "github", "-q")

@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from .. import report
+from .. import _paths, report
 from ..batch import FileResult, check_files
 from . import formats
 from .errors import Usage, error, handle_errors
@@ -60,7 +60,7 @@ def check_cmd(inputs, input_format, exclude, jobs, scheduler, json_path, report_
     elif len(entries) > 1:
         console.print(report.files_table(entries, with_gates=bool(thresholds)))
     outcomes = [formats.outcome(e) for e in entries]
-    formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=json_path == STDIO)
+    formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=_paths.carries_stdout(json_path, junit_path))
     errors = any(e["error"] for e in entries)
     passed = not errors and all(e["passed"] for e in entries)
     finish(outs, json_path, report.check_json(entries, passed), junit_path, outcomes, "anglesmooth check",

@@ -20,7 +20,7 @@ from pathlib import Path
 import click
 from rich.table import Table
 
-from .. import batch, filesets, report
+from .. import _paths, batch, filesets, report
 from ..errors import AngleSmoothError
 from ..gates import Gate
 from . import formats
@@ -224,6 +224,6 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
     console.print(summary_table(results, bool(thresholds), elapsed))
     outcomes = [_outcome(r) for r in results]
     if report_format != "table":
-        formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=json_path == STDIO)
+        formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=_paths.carries_stdout(json_path, junit_path))
     finish(reports, json_path, files_json(results, elapsed), junit_path, outcomes, "anglesmooth smooth",
            worst_exit(results, exit_zero))

@@ -6,7 +6,7 @@ import os
 
 import click
 
-from .. import report
+from .. import _paths, report
 from ..driver import smooth as run_smooth
 from ..fixing import fixed_mask
 from ..gates import evaluate
@@ -164,7 +164,7 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
     console.print(report.smooth_table(before, after, run, title=f"{name} -> {out_name}: {method}, {guard}, {order}"))
     if gates:  # without gates there is nothing to report
         formats.report(report_format, outcomes, lambda text: plain(console, text),
-                       data_on_stdout=STDIO in (output, json_path))
+                       data_on_stdout=_paths.carries_stdout(output, json_path, junit_path, plot))
     passed = all(g.passed for g in gates)
     if not passed and not exit_zero:
         raise click.exceptions.Exit(EXIT_GATE)
