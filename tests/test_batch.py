@@ -407,6 +407,10 @@ def test_check_directory_with_exclude(work, monkeypatch):
     assert result.exit_code == 0 and "every file matches --exclude" in result.stderr
     result = run("check", "in/notes-*.vtu")  # a pattern that finds nothing is a file that does not exist
     assert result.exit_code == 3 and "no such file" in result.stderr
+    (work / "empty").mkdir()
+    result = run("check", "empty")  # a directory without mesh files: a usage error (README)
+    assert result.exit_code == 2 and error_lines(result.stderr)[0].startswith(
+        "anglesmooth: error: no mesh files found in 'empty' (suffixes searched: .msh .vtu")
 
 
 def test_check_jobs_2_output_is_identical(work, monkeypatch):

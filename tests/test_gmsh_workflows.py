@@ -512,7 +512,7 @@ def test_vtk_encoding_kept(msh, tmp_path):
     m = anglesmooth.read(msh["partial", "41a"])
     for binary, word in ((False, b"ASCII"), (True, b"BINARY")):
         asio.write(m, tmp_path / "in.vtk", binary=binary)
-        r = run(tmp_path / "in.vtk", tmp_path / "out.vtk", "-q", "--force")
+        r = run(tmp_path / "in.vtk", tmp_path / "out.vtk", "-q")
         assert r.exit_code == 0, r.stderr
         assert (tmp_path / "out.vtk").read_bytes().split(b"\n")[2].strip() == word
 

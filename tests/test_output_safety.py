@@ -282,7 +282,7 @@ def test_replacing_keeps_owner_group_and_mode_without_setuid(work, monkeypatch):
     out.write_text("old")
     os.chown(out, 1234, 2345)
     os.chmod(out, 0o6750)
-    r = invoke("in.vtu", "out.vtu", "-q", "--json", "r.json", "--force")  # --force: out.vtu exists (issue 14)
+    r = invoke("in.vtu", "out.vtu", "-q", "--json", "r.json")  # out.vtu exists: replaced
     assert r.exit_code == 0, r.stderr
     st = os.stat(out)
     assert (st.st_uid, st.st_gid) == (1234, 2345)
@@ -422,7 +422,7 @@ def test_closed_or_read_only_stderr_keeps_the_exit_codes(work):
     """With stderr closed (or, through a shell wrapper, left open read-only) messages are dropped, codes stay."""
     py = sys.executable
     for redirect in ("2>&-", "2</dev/null"):
-        for cmd, code in ((f"'{py}' -m anglesmooth in.vtu o.vtu -n 1 --force", 0), (f"'{py}' -m anglesmooth check nope.vtu", 3),
+        for cmd, code in ((f"'{py}' -m anglesmooth in.vtu o.vtu -n 1", 0), (f"'{py}' -m anglesmooth check nope.vtu", 3),
                           (f"'{py}' -m anglesmooth in.vtu - --output-format vtu -n 1 -q", 0)):
             p = subprocess.run(["bash", "-c", f"{cmd} {redirect}"], cwd=work, capture_output=True, env=env(),
                                timeout=120)
@@ -504,13 +504,13 @@ def test_sigkill_leaves_a_recognisable_temporary_file_that_the_next_run_names(wo
     assert len(left) == 1 and not (work / "out.vtu").exists()
     old = time.time() - 5
     os.utime(work / left[0], (old, old))
-    p = run_cli("in.vtu", "out.vtu", "-n", "1", cwd=work)  # out.vtu does not exist yet: no --force needed
+    p = run_cli("in.vtu", "out.vtu", "-n", "1", cwd=work)
     assert p.returncode == 0
     notes = [line for line in p.stderr.decode().splitlines() if "interrupted earlier run" in line]
     assert len(notes) == 1 and left[0] in notes[0]
     assert (work / left[0]).exists()  # mentioned, not deleted: another run may own it
     # --quiet silences the note like every other note
-    assert b"interrupted earlier run" not in run_cli("in.vtu", "out.vtu", "-n", "1", "-q", "--force", cwd=work).stderr
+    assert b"interrupted earlier run" not in run_cli("in.vtu", "out.vtu", "-n", "1", "-q", cwd=work).stderr
 
 
 # --------------------------------------------------------------------------- 7. corrupt counts, bounded memory
