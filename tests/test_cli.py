@@ -216,14 +216,22 @@ def test_in_place(meshes, tmp_path):
 
 
 def test_in_place_refuses_another_format(meshes, tmp_path):
-    """--in-place --output-format vtu on a .msh wrote VTU into the .msh: the input was lost (as many files refuse)."""
+    """--in-place --output-format vtu on a .msh wrote VTU into the .msh: the input was lost. Another MSH version
+    (or the format a configuration file names, when it is the input's) is still the input's format."""
     src = tmp_path / "m.msh"
     shutil.copy(meshes["msh"], src)
     h = digest(src)
-    for fmt in ("vtu", "gmsh22"):
-        result = run(src, "--in-place", "--output-format", fmt)
-        assert result.exit_code == 2 and "--in-place keeps the input's format" in one_error_line(result)
+    one = run(src, "--in-place", "--output-format", "vtu")  # one file
+    shutil.copy(src, tmp_path / "m2.msh")
+    many = run(src, tmp_path / "m2.msh", "--in-place", "--output-format", "vtk")  # several files
+    (tmp_path / "m2.msh").unlink()
+    for result in (one, many):
+        assert result.exit_code == 2
+        line = [x for x in result.stderr.splitlines() if x.startswith("anglesmooth: error: ")][0]
+        assert "--in-place keeps the format of" in line and "would write another format under its name" in line
     assert digest(src) == h and sorted(os.listdir(tmp_path)) == ["m.msh"]
+    result = run(src, "--in-place", "--output-format", "gmsh22", "-q")
+    assert result.exit_code == 0 and src.read_bytes().startswith(b"$MeshFormat\n2.2")
 
 
 # ------------------------------------------------------------------ pipelines

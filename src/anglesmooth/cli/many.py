@@ -25,7 +25,7 @@ from ..errors import AngleSmoothError
 from ..gates import Gate
 from . import formats
 from .errors import EXIT_GATE, Usage, error
-from .meshfiles import STDIO, _suffix, plan_outputs
+from .meshfiles import STDIO, _suffix, check_in_place_format, plan_outputs
 from .outputs import emit_json, plain, warn_invalid
 
 DASK_EXTRA = "pip install 'anglesmooth[dask]'"
@@ -113,8 +113,8 @@ def _outputs(found, *, output_dir, suffix, output_format, in_place) -> list[str]
     if in_place:
         if output_dir is not None or suffix:
             raise Usage("--in-place rewrites each INPUT; do not give --output-dir or --suffix")
-        if output_format:
-            raise Usage("--in-place keeps each file's format; do not give --output-format")
+        for p, _ in found:
+            check_in_place_format(p, None, output_format)
         return [p for p, _ in found]
     if output_dir is None and not suffix:
         raise Usage("several INPUTs need --output-dir DIR, --suffix SUFFIX or --in-place "

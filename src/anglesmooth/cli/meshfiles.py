@@ -42,6 +42,28 @@ def format_name(name: str | None, option: str) -> str | None:
         raise Usage(f"{option}: {exc}") from None
 
 
+def _family(fmt: str | None) -> str | None:
+    """A format with its versions taken as one (gmsh22, gmsh41 -> gmsh)."""
+    return "gmsh" if fmt and fmt.startswith("gmsh") else fmt
+
+
+def check_in_place_format(path: str, input_format: str | None, output_format: str | None) -> None:
+    """--in-place rewrites a file in its own format: an --output-format (e.g. from a configuration file) of
+    another format would put that format under the input's name and lose the input (a usage error)."""
+    if not output_format:
+        return
+    from .. import io as mesh_io
+
+    wanted = format_name(output_format, "--output-format")
+    try:
+        own = format_name(input_format, "--input-format") if input_format else mesh_io.output_format(path)
+    except AngleSmoothError:
+        own = None
+    if _family(own) != _family(wanted):
+        raise Usage(f"--in-place keeps the format of '{path}' ({own or 'unknown'}); --output-format {wanted} "
+                    "would write another format under its name")
+
+
 def _binary(stream):
     """The byte stream under a text stream (click's CliRunner swaps sys.stdin/stdout too)."""
     return getattr(stream, "buffer", stream)
@@ -121,8 +143,7 @@ def check_paths(input, output, *, force, in_place, input_format, output_format, 
             raise Usage("--in-place writes back to INPUT; do not give an OUTPUT")
         if input == STDIO:
             raise Usage("--in-place needs an INPUT file, not '-'")
-        if output_format:  # as for many files: another format under the input's name would lose the input
-            raise Usage("--in-place keeps the input's format; do not give --output-format")
+        check_in_place_format(input, input_format, output_format)
         output = input
     if output is None:
         raise Usage("missing OUTPUT (a file, '-' for stdout, or --in-place to overwrite INPUT)")
