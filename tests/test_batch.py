@@ -117,6 +117,18 @@ def test_suffix_and_output_format_name_the_outputs(work, monkeypatch):
     assert {"a.smooth.msh", "b.smooth.vtu"} <= set(os.listdir(work / "in"))
 
 
+def test_a_directory_with_an_output_points_to_output_dir(work, monkeypatch):
+    """'anglesmooth in/ out/' said "cannot write 'out/': it is a directory" (out/ did not exist)."""
+    monkeypatch.chdir(work)
+    before = tree(work)
+    result = run("in/", "out/")
+    assert result.exit_code == 3
+    assert error_lines(result.stderr) == ["anglesmooth: error: cannot read 'in/': is a directory (to smooth every "
+                                          "mesh file in it, give --output-dir DIR: anglesmooth smooth 'in/' "
+                                          "--output-dir DIR)"]
+    assert tree(work) == before and not (work / "out").exists()
+
+
 @pytest.mark.parametrize("suffix", ["/x", "/../../x", "_s/"])
 def test_a_suffix_with_a_slash_is_a_usage_error(work, monkeypatch, suffix):
     """--suffix /x was an internal error (exit 4, ValueError from the path library)."""

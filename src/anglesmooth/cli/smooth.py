@@ -8,6 +8,7 @@ import click
 
 from .. import _paths, report
 from ..driver import smooth as run_smooth
+from ..errors import MeshReadError
 from ..fixing import fixed_mask
 from ..gates import evaluate
 from ..quality import summarize
@@ -107,6 +108,9 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
                            method=method, passes=passes, tol=tol, guard=not no_guard, order=order,
                            fix_groups=fix_group, input_format=input_format)
     formats.check_junit_path(junit_path)
+    if output is not None and input != STDIO and os.path.isdir(input):  # before OUTPUT's checks: the cause
+        raise MeshReadError(f"cannot read '{input}': is a directory (to smooth every mesh file in it, give "
+                            f"--output-dir DIR: anglesmooth smooth '{input}' --output-dir DIR)")
     output, outs = check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
                                output_format=output_format, json_path=json_path, plot=plot, fix_nodes=fix_nodes,
                                gate_file=gate_opts.get("gate_file"), junit_path=junit_path)
