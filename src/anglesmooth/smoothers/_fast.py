@@ -469,15 +469,17 @@ class FastGeometry:
         s = _run(_k().score, self._pts, Xf, self._nodes, tp, t.tri_verts, qp, t.quad_verts, self._fl)
         return s.reshape(X.shape[:-2] + (self.n,))
 
-    def compass(self, x, scale, iterations: int, radius: float, area_band: float | None, directions: np.ndarray):
+    def compass(self, x, scale, iterations: int, radius: float, area_band: float | None, directions: np.ndarray,
+                area_limits=None):
         """:func:`._local.optimize` from positions ``x`` (n, 2): (positions, scores)."""
         t = self._topo
         _, _, tp, qp = _csr(t)
         band = -1.0 if area_band is None else float(area_band)
+        lo, hi = (-np.inf, np.inf) if area_limits is None else (float(area_limits[0]), float(area_limits[1]))
         return _run(
             _k().compass, self._pts, np.ascontiguousarray(x, dtype=np.float64), self._nodes, tp, t.tri_verts, qp,
             t.quad_verts, np.ascontiguousarray(scale, dtype=np.float64), int(iterations), float(radius), band,
-            directions, self._fl,
+            directions, self._fl, lo, hi,
         )
 
 

@@ -271,8 +271,9 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
 
 
 @_kernel
-def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, directions, fl):
-    """``optimize``: compass search per node, optionally within an area band (``band`` < 0: none)."""
+def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, directions, fl, alo, ahi):
+    """``optimize``: compass search per node, optionally within an area band (``band`` < 0: none)
+    and the area limits ``alo``, ``ahi`` (-inf, inf: none)."""
     n = nodes.shape[0]
     out = np.empty((n, 2))
     s_out = np.empty(n)
@@ -282,8 +283,9 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
         s0 = _node_score(pts, px, py, f, tp, tv, qp, qv, fl)
         lo0 = hi0 = 0.0
         if band >= 0:
-            lo0, hi0 = _node_area_range(pts, px, py, f, tp, tv, qp, qv)
-            lo0, hi0 = band * lo0, hi0 / band
+            lr, hr = _node_area_range(pts, px, py, f, tp, tv, qp, qv)
+            lo0 = max(band * lr, min(alo, lr))
+            hi0 = min(hr / band, max(ahi, hr))
         r = radius * scale[i]
         for _ in range(iterations):
             bx = by = 0.0
