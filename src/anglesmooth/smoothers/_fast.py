@@ -425,11 +425,12 @@ def _floors(floors) -> np.ndarray:
     return np.zeros((0, 0)) if floors is None or not floors.active else floors.packed
 
 
-def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None):
+def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, nearest=False):
     """Stages 1 and 2 of the robust ``angle`` update, fused per node (see :func:`.angle.step`).
 
     ``good``: the acceptance score threshold, one per block node or one for all; ``keep``: None or
-    a bool per block node, where the angle position must also be no worse than staying.
+    a bool per block node, where the angle position must also be no worse than staying; ``nearest``:
+    stage 2 takes the good-enough candidate nearest the angle position (see :func:`.angle.step`).
     """
     rp, sp, tp, qp = _csr(topo)
     good = np.ascontiguousarray(np.broadcast_to(np.asarray(good, dtype=np.float64), (blk.size,)))
@@ -437,7 +438,7 @@ def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None):
         _k().angle_choose,
         points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,
         rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, good, _floors(floors),
-        np.zeros(0, np.bool_) if keep is None else np.ascontiguousarray(keep, dtype=np.bool_),
+        np.zeros(0, np.bool_) if keep is None else np.ascontiguousarray(keep, dtype=np.bool_), bool(nearest),
     )
 
 

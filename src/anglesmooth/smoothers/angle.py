@@ -156,6 +156,7 @@ def step(
     opt_below_quad: float = 60.0,
     accept_above: float = 20.0,
     accept_above_quad: float = 20.0,
+    nearest: bool = True,
     floors: Floors | None = None,
 ) -> StepResult:
     """One angle-based pass.
@@ -214,7 +215,7 @@ def step(
             keep = floors.keep[blk.nodes]
             keep = keep if keep.any() else None
         if fast:  # the same choice, fused per node in a compiled loop
-            new, best, refused = _fast.angle_choose(pts, topo, blk, good, floors, keep)
+            new, best, refused = _fast.angle_choose(pts, topo, blk, good, floors, keep, nearest)
             return new, best, int(refused.sum())
         target = angle_target(pts, topo, blk)
         s_a = geom.score(target)
@@ -237,6 +238,15 @@ def step(
             s = np.concatenate([s_a[None, rest], sub.score(extra)])
             cands = np.concatenate([t[None], extra])
             k = np.argmax(s, axis=0)
+            if nearest:
+                # the candidate nearest A among those good enough (not A itself: it was not taken,
+                # nor for the nodes of well-shaped input cells, which keep the best)
+                dx, dy = cands[1:, :, 0] - t[None, :, 0], cands[1:, :, 1] - t[None, :, 1]
+                ok = s[1:] >= good[rest][None]
+                if keep is not None:
+                    ok &= ~keep[rest][None]
+                near = 1 + np.argmin(np.where(ok, dx * dx + dy * dy, np.inf), axis=0)
+                k = np.where(ok.any(axis=0), near, k)
             idx = np.arange(rest.size)
             new, best = target.copy(), s_a.copy()
             new[rest], best[rest] = cands[k, idx], s[k, idx]
