@@ -145,7 +145,7 @@ Methods (all from `anglesmooth.smooth`, boundary nodes fixed):
   target, its midpoint with the angle target, the half step, the current position), the one nearest the angle
   target whose local minimum angle (quads: `min(angle, 180° - angle)`) is at least 20°, else the best of the five
   (none inverting anything), or the halved Laplacian move where every move is invalid; then 4 steps of
-  area-constrained local max-min-angle optimization for the worst ~10 % of nodes (if below two thirds of the
+  area-constrained local max-min-angle optimization for the worst ~5 % of nodes (if below two thirds of the
   ideal angle: 40°, 60° at quad nodes), which never takes a cell outside the mesh's area range at the start of
   the pass. This is a *hybrid* that goes beyond the paper; it is shown
   to say what a user gets by default.
