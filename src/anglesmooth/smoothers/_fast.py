@@ -116,7 +116,7 @@ METHOD_KERNELS = {
 # every kernel's parameters are known)
 PER_NODE = {"nodes": 0, "x": 0, "X": 1, "scale": 0}
 SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "rp", "nbr", "tp", "tv", "qp", "qv", "directions", "fl"}
-SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep"}  # or one value per node, or empty
+SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest", "alo", "ahi"}  # or one value per node, or empty
 
 _ENV = "ANGLESMOOTH_KERNEL"
 _kernels = None  # the compiled module, imported on first use
