@@ -29,7 +29,9 @@ import numpy as np
 from ..topology import Topology
 from ._blocks import StepResult, run_blocks
 from ._floors import Floors
-from ._local import geometry, local_scale, optimize
+from ._local import angle_target, geometry, local_scale, optimize
+from ._pairs import pair_moves
+from ._untangle import invalid_nodes, untangle
 
 __all__ = ["step"]
 
@@ -43,13 +45,27 @@ def step(
     order: str = "colour",
     iterations: int = 10,
     floors: Floors | None = None,
+    untangling: bool = True,
+    area_band: float | None = None,
+    pairs_below: float = 45.0,
 ) -> StepResult:
     """One pass of local max-min-angle optimization over all free nodes (``floors``: see
     :func:`._floors.input_floors`)."""
 
     def update(pts, blk, cur):
         geom = geometry(pts, topo, blk, floors)
-        new, _ = optimize(geom, cur, local_scale(pts, topo, blk), iterations)
+        start = cur
+        if untangling:
+            bad = invalid_nodes(geom.score(cur))
+            if bad.size:
+                extra = (angle_target(pts, topo, blk)[bad],)
+                x, _ = untangle(geom.restrict(bad), pts, topo, blk, bad, cur[bad], floors, extra=extra)
+                start = cur.copy()
+                start[bad] = x
+        new, _ = optimize(geom, start, local_scale(pts, topo, blk), iterations, area_band=area_band)
         return new, 0
 
-    return run_blocks(points, topo, order, update)
+    res = run_blocks(points, topo, order, update)
+    if pairs_below:
+        return StepResult(pair_moves(res.points, topo, floors, pairs_below, iterations), res.rejected)
+    return res

@@ -25,12 +25,22 @@ from ..topology import Topology
 from ._blocks import StepResult, run_blocks
 from ._floors import Floors
 from ._local import geometry, laplacian_target
+from ._untangle import invalid_nodes, untangle
 
 __all__ = ["step"]
 
 
 def step(
-    points: np.ndarray, topo: Topology, /, *, guard: bool = True, order: str = "colour", floors: Floors | None = None
+    points: np.ndarray,
+    topo: Topology,
+    /,
+    *,
+    guard: bool = True,
+    order: str = "colour",
+    floors: Floors | None = None,
+    ties: bool = False,
+    halvings: int = 0,
+    untangling: bool = True,
 ) -> StepResult:
     """One smart-Laplacian pass: Laplacian moves accepted only where the local minimum angle improves.
 
@@ -38,9 +48,31 @@ def step(
 
     def update(pts, blk, cur):
         target = laplacian_target(pts, topo, blk)
-        s = geometry(pts, topo, blk, floors).score(np.stack([target, cur]))
-        take = s[0] > s[1]
+        geom = geometry(pts, topo, blk, floors)
+        s = geom.score(np.stack([target, cur]))
+        take = s[0] >= s[1] if ties else s[0] > s[1]
         moved = (target != cur).any(axis=1)
-        return np.where(take[:, None], target, cur), int((moved & ~take).sum())
+        new = np.where(take[:, None], target, cur)
+        rest = np.flatnonzero(~take & moved)
+        if halvings and rest.size:
+            fr = 0.5 ** np.arange(1, halvings + 1)
+            c, t = cur[rest], target[rest]
+            cands = c[None] + fr[:, None, None] * (t - c)[None]
+            sc = geom.restrict(rest).score(cands)
+            ok = sc >= s[1, rest] if ties else sc > s[1, rest]
+            hit = ok.any(axis=0)
+            k = np.argmax(ok, axis=0)
+            new[rest[hit]] = cands[k[hit], np.flatnonzero(hit)]
+            take[rest[hit]] = True
+        if untangling:
+            bad = invalid_nodes(s[1])
+            bad = bad[~take[bad]]
+            if bad.size:
+                sub = geom.restrict(bad)
+                x, sx = untangle(sub, pts, topo, blk, bad, cur[bad], floors, lap=target[bad])
+                better = sx > s[1, bad]
+                new[bad[better]] = x[better]
+                take[bad[better]] = True
+        return new, int((moved & ~take).sum())
 
     return run_blocks(points, topo, order, update)
