@@ -31,6 +31,7 @@ from ._blocks import StepResult, run_blocks
 from ._floors import Floors
 from ._local import angle_target, geometry, local_scale, optimize
 from ._pairs import pair_moves
+from ._size import size_guard
 from ._untangle import invalid_nodes, untangle
 
 __all__ = ["step"]
@@ -48,6 +49,8 @@ def step(
     untangling: bool = True,
     area_band: float | None = None,
     pairs_below: float = 45.0,
+    size_beta: float | None = 0.5,
+    size_gamma: float = 0.8,
 ) -> StepResult:
     """One pass of local max-min-angle optimization over all free nodes (``floors``: see
     :func:`._floors.input_floors`)."""
@@ -63,6 +66,8 @@ def step(
                 start = cur.copy()
                 start[bad] = x
         new, _ = optimize(geom, start, local_scale(pts, topo, blk), iterations, area_band=area_band)
+        if size_beta:
+            new = size_guard(geom, pts, topo, blk, start, new, geom.score(start), size_beta, size_gamma)
         return new, 0
 
     res = run_blocks(points, topo, order, update)
