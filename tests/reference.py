@@ -306,8 +306,8 @@ def untangle_ref(p, i, inc_i, nb_i, extra=()):
 def reference_untangle_pass(points, topo, method, halvings=2):
     """One pass of ``smart-laplacian`` (the rule of issue 12: Laplacian, or its move halved once or
     twice, where the local quality does not decrease; nodes with an invalid incident cell untangled)
-    or of ``optimization`` without its compass search (``iterations=0``: only the untangling, with the
-    angle position as an extra candidate), node by node in the colour order."""
+    or of ``optimization`` without its compass search (``iterations=0``: only the untangling), node by
+    node in the colour order."""
     p = [list(map(float, x)) for x in points]
     cells = cells_of(topo)
     inc = incident(cells, len(p))
@@ -316,8 +316,7 @@ def reference_untangle_pass(points, topo, method, halvings=2):
         cur = p[i]
         key_c = local_key(p, inc[i])
         if key_c[0] < 0:
-            extra = (angle_pos(p, i, inc[i]),) if method == "optimization" else ()
-            p[i] = untangle_ref(p, i, inc[i], nb[i], extra)
+            p[i] = untangle_ref(p, i, inc[i], nb[i])
             continue
         if method == "optimization":
             continue
