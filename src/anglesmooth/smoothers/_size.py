@@ -54,7 +54,7 @@ def incident_areas(points: np.ndarray, topo: Topology, blk: Block, X: np.ndarray
     return lo.reshape(lead + (n,)), mean.reshape(lead + (n,))
 
 
-def size_guard(geom, points, topo, blk, start, new, s_start, beta: float, gamma: float = 1.0):
+def size_guard(geom, points, topo, blk, start, new, beta: float, gamma: float = 1.0):
     """``new`` positions, with the moves that shrink a cell below the rule's bound shortened (see the module)."""
     lo0, mean0 = incident_areas(points, topo, blk, start)
     bound = np.minimum(beta * mean0, gamma * lo0)
@@ -68,7 +68,8 @@ def size_guard(geom, points, topo, blk, start, new, s_start, beta: float, gamma:
     full = np.broadcast_to(start, (2,) + start.shape).copy()
     full[:, bad] = cands
     lo_c, _ = incident_areas(points, topo, blk, full)
-    ok = (lo_c[:, bad] >= bound[bad]) & (geom.restrict(bad).score(cands) >= s_start[bad])
+    sub = geom.restrict(bad)
+    ok = (lo_c[:, bad] >= bound[bad]) & (sub.score(cands) >= sub.score(st))
     out = new.copy()
     k = np.argmax(ok, axis=0)
     hit = ok.any(axis=0)

@@ -91,7 +91,7 @@ def step(
                 start[bad] = x
         new, _ = optimize(geom, start, local_scale(pts, topo, blk), iterations, area_band=area_band)
         if size_beta:
-            new = size_guard(geom, pts, topo, blk, start, new, geom.score(start), size_beta, size_gamma)
+            new = size_guard(geom, pts, topo, blk, start, new, size_beta, size_gamma)
         return new, 0
 
     res = run_blocks(points, topo, order, update)
