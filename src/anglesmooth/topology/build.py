@@ -27,13 +27,14 @@ def _rings(edges: np.ndarray, deg: np.ndarray, n: int):
     """
     lo, hi = edges[:, 0], edges[:, 1]
     ne = edges.shape[0]
-    offsets = np.zeros(n + 1, np.int64)
+    idx = edges.dtype
+    offsets = np.zeros(n + 1, idx)
     np.cumsum(deg, out=offsets[1:])
     n_lo = np.bincount(lo, minlength=n)
     n_hi = np.bincount(hi, minlength=n)
     eid = np.arange(ne, dtype=np.int64)
-    indices = np.empty(2 * ne, np.int64)
-    edge = np.empty(2 * ne, np.int64)
+    indices = np.empty(2 * ne, idx)
+    edge = np.empty(2 * ne, idx)
     # upper part: edge e is entry e - (first edge with this lo) of lo's upper part
     pos = (offsets[:-1] + n_hi - (np.cumsum(n_lo) - n_lo))[lo]
     pos += eid
@@ -52,7 +53,7 @@ def _rows(offsets: np.ndarray, nodes: np.ndarray):
     """The CSR rows of ``nodes``, concatenated: (position in ``nodes``, CSR entry) of every entry."""
     start = offsets[nodes]
     count = offsets[nodes + 1] - start
-    owner = np.repeat(np.arange(nodes.shape[0], dtype=np.int64), count)
+    owner = np.repeat(np.arange(nodes.shape[0], dtype=nodes.dtype), count)
     entry = np.repeat(start - (np.cumsum(count) - count), count)
     entry += np.arange(entry.shape[0], dtype=np.int64)
     return owner, entry
@@ -71,9 +72,10 @@ def _edge_spokes(tri: np.ndarray, quad: np.ndarray, centre: np.ndarray, ring: np
     h_in = up
     h_in += down
     h_in -= h_out  # j -> p
-    before = _cell_shift(tri, quad, -1)
+    idx = ring.dtype
+    before = _cell_shift(tri, quad, -1, idx)
     spoke_b = before[h_in]
-    spoke_a = (_cell_shift(tri, quad, 2) if quad.size else before)[h_out]  # the same node in a triangle
+    spoke_a = (_cell_shift(tri, quad, 2, idx) if quad.size else before)[h_out]  # the same node in a triangle
     # frac = ideal angle of the a side / both; a side in the cell of p -> j, b side in that of j -> p
     ideal = np.array([TRI_IDEAL, QUAD_IDEAL])
     frac = (ideal[:, None] / (ideal[:, None] + ideal[None, :])).ravel()
@@ -91,7 +93,8 @@ def _with_diagonals(quad: np.ndarray, loc_of: np.ndarray, nf: int, spokes):
     """
     no_tri = np.zeros((0, 3), np.int64)
     e_loc = spokes[0]
-    d_loc, qc = _by_loc(loc_of[_cell_shift(no_tri, quad, 2)], quad.size, np.arange(quad.size, dtype=np.int64))
+    idx = loc_of.dtype
+    d_loc, qc = _by_loc(loc_of[_cell_shift(no_tri, quad, 2, idx)], quad.size, np.arange(quad.size, dtype=np.int64))
     ne = np.bincount(e_loc, minlength=nf)
     nd = np.bincount(d_loc, minlength=nf)
     off = np.zeros(nf + 1, np.int64)
@@ -105,8 +108,8 @@ def _with_diagonals(quad: np.ndarray, loc_of: np.ndarray, nf: int, spokes):
         (
             d_loc,
             quad.ravel()[qc],
-            _cell_shift(no_tri, quad, 1)[qc],
-            _cell_shift(no_tri, quad, -1)[qc],
+            _cell_shift(no_tri, quad, 1, idx)[qc],
+            _cell_shift(no_tri, quad, -1, idx)[qc],
             np.full(qc.shape[0], 0.5),
         ),
     ):
@@ -123,16 +126,17 @@ def _incidence(cells: np.ndarray, loc_of: np.ndarray, free_nodes: np.ndarray):
     width = k * nc
     # ext[r], r = rotation * nc + cell, is the node of that corner; the nodes after it in
     # the cell are ext[r + nc], ext[r + 2 nc], ... (ext repeats the first k - 1 rotations)
-    ext = np.empty(width + (k - 1) * nc, np.int64)
+    idx = free_nodes.dtype
+    ext = np.empty(width + (k - 1) * nc, idx)
     ext[:width].reshape(k, nc)[:] = cells.T
     ext[width:] = ext[: (k - 1) * nc]
     loc, r = _by_loc(loc_of[ext[:width]], width, np.arange(width, dtype=np.int64))
-    verts = np.empty((r.shape[0], k), np.int64)
+    verts = np.empty((r.shape[0], k), idx)
     verts[:, 0] = free_nodes[loc]  # the node itself
     for m in range(1, k):
         r += nc
         np.take(ext, r, out=verts[:, m], mode="clip")  # all in range; "clip" writes straight into the column
-    return loc, verts
+    return loc.astype(idx), verts
 
 
 def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topology:
@@ -148,6 +152,7 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
     n, tri, quad, edges, fixed = cells.n_points, cells.tri, cells.quad, cells.edges, cells.fixed
     nq = quad.shape[0]
     free = ~fixed
+    idx = edges.dtype  # int32 unless the mesh is too large for it (see _keys.index_dtype)
 
     # --- rings (CSR of edge neighbours) ----------------------------------
     ring_offsets, ring_indices, ring_edge = _rings(edges, deg_edges, n)
@@ -157,12 +162,13 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
     if nq:
         pu += [quad[:, 0], quad[:, 1]]
         pv += [quad[:, 2], quad[:, 3]]
-    colour = _colour(n, free, np.concatenate(pu), np.concatenate(pv))
-    free_idx = np.flatnonzero(free)
+    colour = _colour(n, free, np.concatenate(pu, dtype=idx, casting="same_kind"),
+                     np.concatenate(pv, dtype=idx, casting="same_kind"))
+    free_idx = np.flatnonzero(free).astype(idx)
     free_nodes = free_idx[_stable_order(colour[free_idx])[0]]
     ncol = int(colour.max()) + 1 if free_nodes.size else 0
     block_offsets = np.searchsorted(colour[free_nodes], np.arange(ncol + 1))
-    loc_of = np.full(n, -1, np.int64)
+    loc_of = np.full(n, -1, idx)
     loc_of[free_nodes] = np.arange(free_nodes.shape[0])
     nf = free_nodes.shape[0]
 
@@ -187,7 +193,7 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
         **{f.name: getattr(cells, f.name) for f in fields(CellTopology)},
         ring_offsets=ring_offsets,
         ring_indices=ring_indices,
-        colour=np.where(free, colour, -1),
+        colour=np.where(free, colour, -1).astype(idx),
         free_nodes=free_nodes,
         block_offsets=block_offsets,
         ring_loc=ring_loc,

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..errors import InvalidMeshError
 from ..mesh import Mesh2D
-from ._keys import _HalfEdges
+from ._keys import _HalfEdges, index_dtype
 from .orient import _orient
 from .types import CellTopology
 
@@ -77,10 +77,11 @@ def _cell_topology(mesh: Mesh2D, extra_fixed):
     if mesh.n_cells == 0:
         raise InvalidMeshError("the mesh has no triangle or quad cells")
     pts = mesh.points
-    he = _HalfEdges(mesh.triangles, mesh.quads, n)
+    idx = index_dtype(n, mesh.triangles.size + mesh.quads.size)
+    he = _HalfEdges(mesh.triangles, mesh.quads, n, idx)
     tri, quad, flipped = _orient(pts, mesh.triangles, mesh.quads, he)
     if flipped.any():
-        he = _HalfEdges(tri, quad, n)
+        he = _HalfEdges(tri, quad, n, idx)
     nt, nq = tri.shape[0], quad.shape[0]
 
     # --- edges -----------------------------------------------------------
@@ -89,10 +90,15 @@ def _cell_topology(mesh: Mesh2D, extra_fixed):
     first[0] = True
     np.logical_not(he.same, out=first[1:])
     starts = np.flatnonzero(first)  # sorted position of the first directed edge of each edge
-    counts = np.diff(np.append(starts, nh))
+    counts = np.empty(starts.shape[0], idx)
+    np.subtract(starts[1:], starts[:-1], out=counts[:-1])
+    counts[-1:] = nh - starts[-1:]
     uniq = he.ks[starts]  # lo * n + hi of each edge
     e_lo = uniq // n
-    edges = np.stack([e_lo, uniq - e_lo * n], axis=1)
+    edges = np.empty((starts.shape[0], 2), idx)
+    edges[:, 0] = e_lo
+    uniq -= e_lo * n
+    edges[:, 1] = uniq
     bnd_edges = edges[counts == 1]
     boundary = np.zeros(n, bool)
     boundary[bnd_edges.ravel()] = True
