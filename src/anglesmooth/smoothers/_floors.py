@@ -112,13 +112,15 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
         if k == 4:
             keep_q[cells[rect & (emax >= KEEP_STRETCH * emin)].ravel()] = True
     keep = ~poor[topo.free_nodes] | keep_q[topo.free_nodes]
-    out = []
-    for verts in (topo.tri_verts, topo.quad_verts):
+    # the six columns are views of one zero-filled (6, rows) array, the kernels' ``packed``: written
+    # only where a floor applies (np.zeros pages that are never written take no memory)
+    nrow = (topo.tri_verts.shape[0], topo.quad_verts.shape[0])
+    packed = np.zeros((6, max(nrow)))
+    out = [packed[k, : nrow[k // 3]] for k in range(6)]
+    for j, verts in enumerate((topo.tri_verts, topo.quad_verts)):
         k = verts.shape[1]
-        zero = np.zeros(verts.shape[0])
         rows = np.flatnonzero(an_node[verts[:, 0]])  # rows of a node with an anisotropic cell
         if not rows.size:
-            out += [zero, zero, zero]
             continue
         e, _, _ = _cell_shape(x, y, verts[rows])
         an = np.max(e, axis=0) >= aniso * np.min(e, axis=0)
@@ -129,16 +131,8 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
         else:
             area2 = (px[2] - px[0]) * (py[3] - py[1]) - (py[2] - py[0]) * (px[3] - px[1])
         f = np.where(an, fraction, 0.0)
-        cols = []
-        for v in (f * np.abs(area2), f * e[0], f * e[k - 1]):
-            c = zero.copy()
+        for c, v in zip(out[3 * j : 3 * j + 3], (f * np.abs(area2), f * e[0], f * e[k - 1])):
             c[rows] = v
-            cols.append(c)
-        out += cols
-    if an_node.any():
-        packed = np.zeros((6, max(out[0].shape[0], out[3].shape[0])))
-        for k, a in enumerate(out):
-            packed[k, : a.shape[0]] = a
-    else:
+    if not an_node.any():
         packed = np.zeros((0, 0))
     return Floors(*out, packed, keep)
