@@ -147,8 +147,10 @@ class Topology(CellTopology):
 
 def _starts(rel: np.ndarray, n: int):
     """reduceat offsets of sorted row owners ``rel`` (0..n-1) and which owners have rows."""
-    starts = np.searchsorted(rel, np.arange(n))
-    has = np.bincount(rel, minlength=n) > 0
+    count = np.bincount(rel, minlength=n)
+    starts = np.cumsum(count)  # rows before each owner (rel is sorted): np.searchsorted(rel, np.arange(n))
+    starts -= count
+    has = count > 0
     return starts[has], has
 
 
