@@ -1,5 +1,9 @@
 """Mesh topology, built once per mesh with numpy only.
 
+Modules, imported in one direction: :mod:`.types` (the dataclasses), :mod:`._keys`
+(directed edges and key sorts), :mod:`.orient` (signed areas, orientation), :mod:`.cells`
+(edges, boundary, fixed mask), :mod:`.colouring`, :mod:`.build` (the smoothing tables).
+
 :func:`build_topology` turns a :class:`~anglesmooth.mesh.Mesh2D` into a
 :class:`Topology`: consistently oriented cells, unique edges, boundary, the fixed
 mask, node rings (CSR), a node colouring, and the per-node tables the smoothers
@@ -37,6 +41,11 @@ Per-node tables
     * incidence (guards, quality): ``tri_loc``/``tri_verts`` (m, 3) and
       ``quad_loc``/``quad_verts`` (m, 4): each cell around a free node, its
       nodes in counter-clockwise order starting at that node.
+
+    Index tables (node ids, locs, edges, ring entries, incidence rows) are
+    int32 while every count fits (nodes and four times the corners below
+    2**31: half the memory and page faults of int64), int64 beyond; the values
+    are the same either way.
 
     A free node is interior and manifold, so its edge spokes are exactly its
     ring entries; without quads (no diagonal spokes) ``spoke_loc`` and

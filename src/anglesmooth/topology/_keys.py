@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
-#: Largest count (nodes, or corners of all cells) for which the index tables are int32; beyond it int64.
+#: Largest count (nodes, or four times the corners of all cells: ring entries plus diagonal spokes) for
+#: which the index tables are int32; beyond it int64.
 INT32_MAX = 2**31 - 1
 
 
 def index_dtype(n_points: int, n_corners: int):
     """The integer type of the topology's index tables: int32 when every node id, corner, edge and ring
     entry fits (half the memory and the page faults of int64), else int64."""
-    return np.dtype(np.int32) if max(n_points, 2 * n_corners) <= INT32_MAX else np.dtype(np.int64)
+    return np.dtype(np.int32) if max(n_points, 4 * n_corners) <= INT32_MAX else np.dtype(np.int64)
 
 
 def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
