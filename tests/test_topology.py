@@ -111,3 +111,22 @@ def test_int32_tables_hold_the_int64_build_values(name, monkeypatch):
         for f in fields(p):
             a, b = getattr(p, f.name), getattr(q, f.name)
             assert np.array_equal(a, b) if isinstance(a, np.ndarray) else a == b, f.name
+
+
+@pytest.mark.parametrize("name", ["layered-mixed", "distorted", "paper-mixed"])
+def test_input_floors_in_chunks_equal_the_whole_arrays(name, monkeypatch):
+    """The driver's per-incidence-row input floors are computed in chunks of cells and rows (bounded
+    temporaries); chunks of 7 give the same arrays as one chunk, and the six columns are views of
+    the kernels' packed array."""
+    from anglesmooth.smoothers import _floors
+
+    mesh = _layered_mixed() if name == "layered-mixed" else MESHES[name]()
+    topo = build_topology(mesh)
+    whole = _floors.input_floors(mesh.points, topo)
+    monkeypatch.setattr(_floors, "_CHUNK", 7)
+    chunked = _floors.input_floors(mesh.points, topo)
+    for a, b in zip(whole, chunked, strict=True):
+        assert a.shape == b.shape and np.array_equal(a, b)
+    if whole.active:
+        assert whole.t_area2.any() or whole.q_area2.any()
+        assert all(np.shares_memory(col, whole.packed) for col in whole[:6])
