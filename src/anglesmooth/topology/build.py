@@ -99,8 +99,19 @@ def _with_diagonals(quad: np.ndarray, loc_of: np.ndarray, nf: int, spokes):
     nd = np.bincount(d_loc, minlength=nf)
     off = np.zeros(nf + 1, np.int64)
     np.cumsum(ne + nd, out=off[1:])
-    pos_e = np.arange(e_loc.shape[0]) - (np.cumsum(ne) - ne)[e_loc] + off[e_loc]
-    pos_d = np.arange(d_loc.shape[0]) - (np.cumsum(nd) - nd)[d_loc] + off[d_loc] + ne[d_loc]
+    # entry q of node i's edge spokes goes to off[i] + q, its diagonal spoke q to off[i] + ne[i] + q;
+    # e_loc and d_loc are sorted, so the per-node shift is a np.repeat (sequential) rather than a gather
+    first = np.cumsum(ne)
+    first -= ne
+    pos_e = np.repeat(off[:-1] - first, ne)
+    pos_e += np.arange(e_loc.shape[0])
+    np.cumsum(nd, out=first)
+    first -= nd
+    shift = off[:-1] - first
+    shift += ne
+    pos_d = np.repeat(shift, nd)
+    pos_d += np.arange(d_loc.shape[0])
+    del first, shift
     m = off[-1]
     merged = []
     for e_col, d_col in zip(
@@ -110,7 +121,7 @@ def _with_diagonals(quad: np.ndarray, loc_of: np.ndarray, nf: int, spokes):
             quad.ravel()[qc],
             _cell_shift(no_tri, quad, 1, idx)[qc],
             _cell_shift(no_tri, quad, -1, idx)[qc],
-            np.full(qc.shape[0], 0.5),
+            0.5,
         ),
     ):
         col = np.empty(m, e_col.dtype)
