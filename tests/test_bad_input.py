@@ -678,3 +678,51 @@ if __name__ == "__main__":
     with tempfile.TemporaryDirectory() as tmp:
         TABLE.write_text(render(table_rows(Path(tmp))), encoding="utf-8")
     print(f"wrote {TABLE}")
+
+
+# --- corrupt gmsh files: the reason in words, the technical detail after it -------------------
+
+_MSH22_HEAD = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n{n3} 1 1 0\n4 0 1 0\n$EndNodes\n"
+
+
+@pytest.mark.parametrize(
+    "nodes3, last_cell, words",
+    [
+        ("3", "1 3 9", "a cell refers to a node the file does not define, or node numbers repeat; IndexError"),
+        ("2", "1 3 4", "references node -1, a node the file does not define (in a gmsh file: a node tag missing or repeated)"),
+    ],
+    ids=["missing-node-tag", "repeated-node-tag"],
+)
+def test_corrupt_gmsh_node_tags_are_named(tmp_path, nodes3, last_cell, words):
+    from anglesmooth import read
+    from anglesmooth.errors import InvalidMeshError, MeshReadError
+
+    p = tmp_path / "bad.msh"
+    p.write_text(_MSH22_HEAD.format(n3=nodes3) + f"$Elements\n2\n1 2 2 0 1 1 2 3\n2 2 2 0 1 {last_cell}\n$EndElements\n")
+    with pytest.raises((MeshReadError, InvalidMeshError)) as e:
+        read(p)
+    assert words in str(e.value) and "\n" not in str(e.value)
+
+
+def test_truncated_gmsh_file_says_truncated(tmp_path):
+    """A gmsh file cut in the middle of its node block: meshio's reshape error comes with the words."""
+    import gmsh
+
+    from anglesmooth import read
+    from anglesmooth.errors import MeshReadError
+
+    full = tmp_path / "full.msh"
+    gmsh.initialize(["-noenv"])
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.occ.addRectangle(0, 0, 0, 1, 1)
+        gmsh.model.occ.synchronize()
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(full))
+    finally:
+        gmsh.finalize()
+    text = full.read_text()
+    cut = tmp_path / "cut.msh"
+    cut.write_text(text[: text.index("$EndNodes") // 2 + len(text[: text.index("$Nodes")]) // 2])
+    with pytest.raises(MeshReadError, match=r"not a valid gmsh file \((truncated or corrupt; |.*: truncated or corrupt)"):
+        read(cut)
