@@ -46,6 +46,11 @@ def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 _CHUNK = 16384  # rows per kernel call: the temporaries of one call stay in the L2 cache
 _SMALL = 4096  # up to this many rows, one ragged chunk (see _Rows)
+#: the same for a block's subset (:meth:`BlockGeometry.restrict`: the nodes that choose among five
+#: candidates, the few that get optimized): up to this many rows one ragged chunk, where the per-count
+#: chunks would cost some ten numpy calls each per operation (measured: the optimization stage of a
+#: 1M-triangle default pass 2x faster)
+_SMALL_SUBSET = 4 * _CHUNK
 
 
 class _Rows:
@@ -64,10 +69,10 @@ class _Rows:
     one per distinct count, where the calls' overhead outweighs their work.
     """
 
-    def __init__(self, rel: np.ndarray, n: int):
+    def __init__(self, rel: np.ndarray, n: int, small: int = _SMALL):
         counts = np.bincount(rel, minlength=n)
         m = rel.shape[0]
-        if m <= _SMALL:
+        if m <= small:
             self.perm = np.argsort(rel, kind="stable")
             nodes = np.flatnonzero(counts)
             self.chunks = [(0, m, nodes, counts[nodes])] if m else []
@@ -79,7 +84,11 @@ class _Rows:
             c = counts[nodes]
             self.perm = np.repeat(offs[nodes] - (np.cumsum(c) - c), c) + np.arange(m)
         else:
-            self.perm = np.lexsort((rel, counts[rel]))
+            key = counts[rel] * np.int64(n) + rel
+            if np.all(key[1:] >= key[:-1]):  # already grouped (a restricted layout): what lexsort gives
+                self.perm = np.arange(m)
+            else:
+                self.perm = np.lexsort((rel, counts[rel]))
             first = np.ones(m, bool)
             first[1:] = rel[self.perm][1:] != rel[self.perm][:-1]
             nodes = rel[self.perm][first]
@@ -215,7 +224,7 @@ class BlockGeometry:
         ):
             rel = remap[getattr(self, rel_name)]
             keep = np.flatnonzero(rel >= 0)
-            rows = _Rows(rel[keep], g.n)
+            rows = _Rows(rel[keep], g.n, _SMALL_SUBSET)
             keep = keep[rows.perm]
             setattr(g, rows_name, rows)
             setattr(g, rel_name, rel[keep])
@@ -223,8 +232,12 @@ class BlockGeometry:
                 setattr(g, name, getattr(self, name)[keep])
         return g
 
-    def score(self, X: np.ndarray) -> np.ndarray:
-        """Local score of every node at candidate positions ``X`` (..., n, 2) -> (..., n)."""
+    def score(self, X: np.ndarray, band: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+        """Local score of every node at candidate positions ``X`` (..., n, 2) -> (..., n).
+
+        With ``band`` = (lo0, hi0) (per node), -inf where an incident area leaves [lo0, hi0]: the
+        areas come out of the same pass over the cells as the score (see :meth:`banded_score`).
+        """
         X = np.asarray(X, dtype=np.float64)
         lead = X.shape[:-2]
         Xf = X.reshape((-1, self.n, 2))
@@ -232,6 +245,9 @@ class BlockGeometry:
         x0, y0 = np.ascontiguousarray(Xf[..., 0]), np.ascontiguousarray(Xf[..., 1])
         best = np.full((K, self.n), np.inf)
         bad = np.zeros((K, self.n))
+        if band is not None:
+            lo = np.full((K, self.n), np.inf)
+            hi = np.full((K, self.n), -np.inf)
         with np.errstate(divide="ignore", invalid="ignore"):
             for rows, kernel, area, rel in (
                 (self._t, self._tri_chunk, self._tri_area, self.t_rel),
@@ -244,26 +260,35 @@ class BlockGeometry:
                         k1 = min(k0 + kb, K)
                         px = np.repeat(x0[k0:k1, nodes], d, axis=1)
                         py = np.repeat(y0[k0:k1, nodes], d, axis=1)
-                        vals, ok = kernel(px, py, r0, r1)
+                        vals, ok, ar = kernel(px, py, r0, r1, band is not None)
                         best[k0:k1, nodes] = np.minimum(best[k0:k1, nodes], _rowreduce(vals, d))
+                        if band is not None:
+                            lo[k0:k1, nodes] = np.minimum(lo[k0:k1, nodes], _rowreduce(ar, d))
+                            hi[k0:k1, nodes] = np.maximum(hi[k0:k1, nodes], _rowreduce(ar, d, np.maximum))
                         if not ok.all():
                             # an inverted cell (area <= 0) weighs more than any number of
                             # other invalid (non-convex) cells: swapping one for the other
                             # is never an improvement
-                            weight = np.where(area(px, py, r0, r1) > 0, 1.0, INVERTED_WEIGHT)[~ok]
+                            weight = np.where((area(px, py, r0, r1) if ar is None else ar) > 0, 1.0,
+                                              INVERTED_WEIGHT)[~ok]
                             kk, rr = np.nonzero(~ok)
                             cnt = np.bincount(kk * self.n + rel[r0 + rr], weights=weight, minlength=(k1 - k0) * self.n)
                             bad[k0:k1] += cnt.reshape(k1 - k0, self.n)
         out = np.where(bad > 0, INVALID - bad, best)
+        if band is not None:
+            out = np.where((lo >= band[0]) & (hi <= band[1]), out, -np.inf)
         return out.reshape(lead + (self.n,))
 
     def banded_score(self, X: np.ndarray, lo0: np.ndarray, hi0: np.ndarray) -> np.ndarray:
-        """The score at ``X`` where every incident area stays within [lo0, hi0] (per node), -inf elsewhere."""
-        lo, hi = self.area_range(X)
-        return np.where((lo >= lo0) & (hi <= hi0), self.score(X), -np.inf)
+        """The score at ``X`` where every incident area stays within [lo0, hi0] (per node), -inf elsewhere.
 
-    def _tri_chunk(self, px, py, r0, r1):
-        """(-max cos of the three corners, valid) for triangle rows r0:r1.
+        The same numbers as ``np.where`` of :meth:`area_range` and :meth:`score`, in one pass: the
+        score kernels' corner cross products give the areas exactly (``_tri_chunk``, ``_quad_chunk``).
+        """
+        return self.score(X, (lo0, hi0))
+
+    def _tri_chunk(self, px, py, r0, r1, want_area=False):
+        """(-max cos of the three corners, valid, area or None) for triangle rows r0:r1.
 
         With f2 = p0 - p2 = -(p2 - p0) (exact in floating point), the negated
         cosines come out without negations: -cos0 = e1.f2 / (l1 l2),
@@ -278,6 +303,9 @@ class BlockGeometry:
         l1 = np.sqrt(ex1 * ex1 + ey1 * ey1)
         l2 = np.sqrt(fx2 * fx2 + fy2 * fy2)
         cr = ex1 * fy2 - ey1 * fx2
+        # the area, _tri_area's 0.5 * (e1 x e2) (up to the sign of a zero, which no comparison sees):
+        # fx2 = -ex2 and fy2 = -ey2 exactly, so cr = -(e1 x e2) exactly (rounding is symmetric)
+        ar = -0.5 * cr if want_area else None
         ok = cr < 0
         if self.floors:  # -cr is twice the area
             ok &= (-cr >= self.t_fa[r0:r1]) & (l1 >= self.t_f1[r0:r1]) & (l2 >= self.t_f2[r0:r1])
@@ -287,10 +315,10 @@ class BlockGeometry:
         ok &= np.isfinite(vals)
         if not ok.all():
             vals[~ok] = np.inf
-        return vals, ok
+        return vals, ok, ar
 
-    def _quad_chunk(self, px, py, r0, r1):
-        """(-max |cos| of the four corners, valid) for quad rows r0:r1."""
+    def _quad_chunk(self, px, py, r0, r1, want_area=False):
+        """(-max |cos| of the four corners, valid, area or None) for quad rows r0:r1."""
         ux, uy, l12 = self.q_ux[r0:r1], self.q_uy[r0:r1], self.q_l12[r0:r1]
         vx, vy, l23 = self.q_vx[r0:r1], self.q_vy[r0:r1], self.q_l23[r0:r1]
         ex1 = self.q_x1[r0:r1] - px
@@ -303,9 +331,13 @@ class BlockGeometry:
         ok &= uy * ex1 - ux * ey1 > 0  # corner 1: e12 x (-e1)
         ok &= ex3 * vy - ey3 * vx > 0  # corner 3: e3 x e23
         ok &= self.q_ok2[r0:r1]
-        if self.floors:
+        ar = None
+        if self.floors or want_area:
+            # twice the area: the same operations as _quad_area's
             x1, y1 = self.q_x1[r0:r1], self.q_y1[r0:r1]
             a2 = (x1 + ux - px) * (self.q_y3[r0:r1] - y1) - (y1 + uy - py) * (self.q_x3[r0:r1] - x1)
+            ar = 0.5 * a2 if want_area else None
+        if self.floors:
             ok &= (a2 >= self.q_fa[r0:r1]) & (l1 >= self.q_f1[r0:r1]) & (l3 >= self.q_f3[r0:r1])
         cm = np.abs((ex1 * ex3 + ey1 * ey3) / (l1 * l3))
         np.maximum(cm, np.abs((ux * ex1 + uy * ey1) / (l12 * l1)), out=cm)
@@ -316,7 +348,7 @@ class BlockGeometry:
         np.negative(cm, out=cm)
         if not ok.all():
             cm[~ok] = np.inf
-        return cm, ok
+        return cm, ok, ar
 
     def area_range(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Smallest and largest signed area of each node's incident cells at positions ``X`` (..., n, 2)."""
