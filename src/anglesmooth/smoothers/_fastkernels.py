@@ -7,6 +7,13 @@ given (``prange``, compiled serially): a node reads the shared points and
 writes only its own outputs, so :func:`._fast._run` runs them on several
 threads by splitting the nodes (numba's own parallel layer costs five times
 the compile time and oversubscribes busy machines; see ``_fast``).
+
+A node with several candidates (the best of five, the keep test, the compass
+search) gathers its incident cells once into a small scratch (``_node_rows``)
+and scores each candidate from it (``_node_score_rows``), starting with the cell
+that decided the previous candidate and stopping as soon as the candidate cannot
+beat the best so far: the same answers (a minimum and an integer count do not
+depend on the order of the cells), fewer operations.
 """
 
 from __future__ import annotations
@@ -147,6 +154,7 @@ def _node_rows(pts, f, tp, tv, qp, qv, buf):
         buf[k, 10] = abs(cos2) if ok2 else 1.0
         buf[k, 11] = 1.0 if ok2 else 0.0
         k += 1
+    buf[buf.shape[0] - 1, 0] = 0.0  # the cell to start the next score with (see _node_score_rows)
 
 
 @njit(inline="always")
@@ -158,71 +166,94 @@ def _node_score_rows(px, py, f, tp, qp, buf, fl, cut):
     at least the best invalid score ``INVALID - 1``, an invalid cell), skipping the node's other
     cells.  ``-inf`` scores every cell.  Every score above ``cut`` is exact, so a caller that only
     asks "is this candidate better than ``cut``?" gets the same answers.
+
+    The cells are visited starting with the one that decided the previous call for this node (its
+    worst cell, or the one that cut it off; kept in ``buf``'s last row): a minimum and a count of
+    invalid cells do not depend on the order, and a nearby candidate is most often cut off by the
+    same cell, so most candidates that cannot win stop after one cell.
     """
     best = np.inf
-    cut_invalid = cut >= INVALID - 1.0
     bad = 0.0
     floors = fl.shape[0] > 0
+    cut_invalid = cut >= INVALID - 1.0
     t0, nt = tp[f], tp[f + 1] - tp[f]
-    for k in range(nt):
-        x1, y1, x2, y2 = buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3]
-        ux, uy, l12 = buf[k, 4], buf[k, 5], buf[k, 6]
-        ex1, ey1 = x1 - px, y1 - py
-        fx2, fy2 = px - x2, py - y2
-        l1 = math.sqrt(ex1 * ex1 + ey1 * ey1)
-        l2 = math.sqrt(fx2 * fx2 + fy2 * fy2)
-        v0 = (ex1 * fx2 + ey1 * fy2) / (l1 * l2)
-        v1 = (ux * ex1 + uy * ey1) / (l12 * l1)
-        v2 = (fx2 * ux + fy2 * uy) / (l2 * l12)
-        v = min(v0, v1, v2)
-        cr = ex1 * fy2 - ey1 * fx2
-        okf = True
-        if floors:
-            r = t0 + k
-            okf = (-cr >= fl[0, r]) & (l1 >= fl[1, r]) & (l2 >= fl[2, r])
-        if (cr < 0) & okf & (v0 == v0) & (v1 == v1) & (v2 == v2) & (abs(v) < np.inf):
-            best = min(best, v)
-            if best <= cut:  # the score is at most best (an invalid cell only lowers it further)
-                return -np.inf
-        else:
-            if cut_invalid:
-                return -np.inf
-            ex2, ey2 = x2 - px, y2 - py
-            bad += 1.0 if 0.5 * (ex1 * ey2 - ey1 * ex2) > 0 else INVERTED_WEIGHT
     q0 = qp[f]
-    for k in range(nt, nt + qp[f + 1] - q0):
-        x1, y1, x3, y3 = buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3]
-        ux, uy, vx, vy = buf[k, 4], buf[k, 5], buf[k, 6], buf[k, 7]
-        l12, l23, qc2, ok2 = buf[k, 8], buf[k, 9], buf[k, 10], buf[k, 11] > 0
-        ex1, ey1 = x1 - px, y1 - py
-        ex3, ey3 = x3 - px, y3 - py
-        l1 = math.sqrt(ex1 * ex1 + ey1 * ey1)
-        l3 = math.sqrt(ex3 * ex3 + ey3 * ey3)
-        a0 = abs((ex1 * ex3 + ey1 * ey3) / (l1 * l3))
-        a1 = abs((ux * ex1 + uy * ey1) / (l12 * l1))
-        a3 = abs((ex3 * vx + ey3 * vy) / (l3 * l23))
-        cm = max(a0, a1, a3, qc2)
-        ok = (ex1 * ey3 - ey1 * ex3 > 0) & (uy * ex1 - ux * ey1 > 0) & (ex3 * vy - ey3 * vx > 0) & ok2
-        if floors:
-            r = q0 + k - nt
-            a2 = (x1 + ux - px) * (y3 - y1) - (y1 + uy - py) * (x3 - x1)
-            ok = ok & (a2 >= fl[3, r]) & (l1 >= fl[4, r]) & (l3 >= fl[5, r])
-        if ok & (a0 < np.inf) & (a1 < np.inf) & (a3 < np.inf):
-            best = min(best, -cm)
-            if best <= cut:
+    m = nt + qp[f + 1] - q0
+    hint = buf.shape[0] - 1
+    k = int(buf[hint, 0])
+    if k >= m:
+        k = 0
+    worst = k
+    worst_bad = -1
+    for _ in range(m):
+        if k < nt:
+            x1, y1, x2, y2 = buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3]
+            ux, uy, l12 = buf[k, 4], buf[k, 5], buf[k, 6]
+            ex1, ey1 = x1 - px, y1 - py
+            fx2, fy2 = px - x2, py - y2
+            l1 = math.sqrt(ex1 * ex1 + ey1 * ey1)
+            l2 = math.sqrt(fx2 * fx2 + fy2 * fy2)
+            v0 = (ex1 * fx2 + ey1 * fy2) / (l1 * l2)
+            v1 = (ux * ex1 + uy * ey1) / (l12 * l1)
+            v2 = (fx2 * ux + fy2 * uy) / (l2 * l12)
+            v = min(v0, v1, v2)
+            cr = ex1 * fy2 - ey1 * fx2
+            okf = True
+            if floors:
+                r = t0 + k
+                okf = (-cr >= fl[0, r]) & (l1 >= fl[1, r]) & (l2 >= fl[2, r])
+            valid = (cr < 0) & okf & (v0 == v0) & (v1 == v1) & (v2 == v2) & (abs(v) < np.inf)
+            if not valid:
+                ex2, ey2 = x2 - px, y2 - py
+                w = 1.0 if 0.5 * (ex1 * ey2 - ey1 * ex2) > 0 else INVERTED_WEIGHT
+        else:
+            x1, y1, x3, y3 = buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3]
+            ux, uy, vx, vy = buf[k, 4], buf[k, 5], buf[k, 6], buf[k, 7]
+            l12, l23, qc2, ok2 = buf[k, 8], buf[k, 9], buf[k, 10], buf[k, 11] > 0
+            ex1, ey1 = x1 - px, y1 - py
+            ex3, ey3 = x3 - px, y3 - py
+            l1 = math.sqrt(ex1 * ex1 + ey1 * ey1)
+            l3 = math.sqrt(ex3 * ex3 + ey3 * ey3)
+            a0 = abs((ex1 * ex3 + ey1 * ey3) / (l1 * l3))
+            a1 = abs((ux * ex1 + uy * ey1) / (l12 * l1))
+            a3 = abs((ex3 * vx + ey3 * vy) / (l3 * l23))
+            cm = max(a0, a1, a3, qc2)
+            ok = (ex1 * ey3 - ey1 * ex3 > 0) & (uy * ex1 - ux * ey1 > 0) & (ex3 * vy - ey3 * vx > 0) & ok2
+            if floors:
+                r = q0 + k - nt
+                a2 = (x1 + ux - px) * (y3 - y1) - (y1 + uy - py) * (x3 - x1)
+                ok = ok & (a2 >= fl[3, r]) & (l1 >= fl[4, r]) & (l3 >= fl[5, r])
+            valid = ok & (a0 < np.inf) & (a1 < np.inf) & (a3 < np.inf)
+            v = -cm
+            if not valid:
+                dx, dy = x1 + ux - px, y1 + uy - py
+                fx, fy = x3 - x1, y3 - y1
+                w = 1.0 if 0.5 * (dx * fy - dy * fx) > 0 else INVERTED_WEIGHT
+        if valid:
+            if v < best:
+                best = v
+                worst = k
+            if best <= cut:  # the score is at most best (an invalid cell only lowers it further)
+                buf[hint, 0] = k
                 return -np.inf
         else:
             if cut_invalid:
+                buf[hint, 0] = k
                 return -np.inf
-            dx, dy = x1 + ux - px, y1 + uy - py
-            fx, fy = x3 - x1, y3 - y1
-            bad += 1.0 if 0.5 * (dx * fy - dy * fx) > 0 else INVERTED_WEIGHT
+            bad += w
+            if worst_bad < 0:
+                worst_bad = k
+        k += 1
+        if k == m:
+            k = 0
+    buf[hint, 0] = worst_bad if bad > 0 else worst
     return INVALID - bad if bad > 0 else best
 
 
 @njit(inline="always")
 def _node_area_range_rows(px, py, f, tp, qp, buf):
-    """:func:`_node_area_range` from the rows of :func:`_node_rows` (same numbers)."""
+    """``BlockGeometry.area_range`` for one node: ``_tri_area`` / ``_quad_area``, from the rows of
+    :func:`_node_rows`."""
     lo = np.inf
     hi = -np.inf
     nt = tp[f + 1] - tp[f]
@@ -243,35 +274,11 @@ def _node_area_range_rows(px, py, f, tp, qp, buf):
     return lo, hi
 
 
-@njit(inline="always")
-def _node_area_range(pts, px, py, f, tp, tv, qp, qv):
-    """``BlockGeometry.area_range`` for one node: ``_tri_area`` / ``_quad_area``."""
-    lo = np.inf
-    hi = -np.inf
-    for r in range(tp[f], tp[f + 1]):
-        i1, i2 = tv[r, 1], tv[r, 2]
-        ex1, ey1 = pts[i1, 0] - px, pts[i1, 1] - py
-        ex2, ey2 = pts[i2, 0] - px, pts[i2, 1] - py
-        a = 0.5 * (ex1 * ey2 - ey1 * ex2)
-        lo = min(lo, a)
-        hi = max(hi, a)
-    for r in range(qp[f], qp[f + 1]):
-        i1, i2, i3 = qv[r, 1], qv[r, 2], qv[r, 3]
-        x1, y1 = pts[i1, 0], pts[i1, 1]
-        ux, uy = pts[i2, 0] - x1, pts[i2, 1] - y1
-        dx, dy = x1 + ux - px, y1 + uy - py
-        fx, fy = pts[i3, 0] - x1, pts[i3, 1] - y1
-        a = 0.5 * (dx * fy - dy * fx)
-        lo = min(lo, a)
-        hi = max(hi, a)
-    return lo, hi
-
-
 @_kernel
 def score(pts, X, nodes, tp, tv, qp, qv, fl):
     K, n = X.shape[0], X.shape[1]
     out = np.empty((K, n))
-    buf = np.empty((_max_rows(nodes, tp, qp), _ROW_COLS))
+    buf = np.empty((_max_rows(nodes, tp, qp) + 1, _ROW_COLS))
     for i in prange(n):
         f = nodes[i]
         _node_rows(pts, f, tp, tv, qp, qv, buf)
@@ -369,7 +376,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
     new = np.empty((n, 2))
     best = np.empty(n)
     refused = np.zeros(n, np.bool_)
-    buf = np.empty((_max_rows(nodes, tp, qp), _ROW_COLS))  # the node's fixed cell data (speed only)
+    buf = np.empty((_max_rows(nodes, tp, qp) + 1, _ROW_COLS))  # the node's fixed cell data (speed only)
     for i in prange(n):
         f = nodes[i]
         ax, ay = _node_angle(pts, f, free, sp, ring, sa, sb, frac)
@@ -424,7 +431,7 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
     n = nodes.shape[0]
     out = np.empty((n, 2))
     s_out = np.empty(n)
-    buf = np.empty((_max_rows(nodes, tp, qp), _ROW_COLS))
+    buf = np.empty((_max_rows(nodes, tp, qp) + 1, _ROW_COLS))
     for i in prange(n):
         f = nodes[i]
         px, py = x[i, 0], x[i, 1]
