@@ -447,11 +447,14 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
             bs = -np.inf
             for c in range(directions.shape[0]):
                 qx, qy = px + directions[c, 0] * r, py + directions[c, 1] * r
-                if band >= 0:
+                # only a candidate above max(bs, s0) can change the outcome (the first best, moved to
+                # only if it beats s0), so the others may be cut off early and need no area band
+                cut = max(bs, s0)
+                sc = _node_score_rows(qx, qy, f, tp, qp, buf, fl, cut)
+                if band >= 0 and sc > cut:
                     lo, hi = _node_area_range_rows(qx, qy, f, tp, qp, buf)
-                    sc = _node_score_rows(qx, qy, f, tp, qp, buf, fl, max(bs, s0)) if lo >= lo0 and hi <= hi0 else -np.inf
-                else:
-                    sc = _node_score_rows(qx, qy, f, tp, qp, buf, fl, max(bs, s0))
+                    if not (lo >= lo0 and hi <= hi0):
+                        sc = -np.inf
                 if c == 0 or sc > bs:  # np.argmax: the first best
                     bx, by, bs = qx, qy, sc
             if bs > s0:
