@@ -13,7 +13,7 @@ from anglesmooth.smoothers import SMOOTHERS, get_smoother
 from anglesmooth.errors import UnknownMethodError
 from anglesmooth.topology import build_topology, signed_areas
 
-from reference import reference_pass
+from reference import kernel_centroid_ref, reference_pass, reference_untangle_pass
 
 METHODS = sorted(SMOOTHERS)
 SEEDS = range(5)
@@ -423,3 +423,159 @@ def test_guarded_methods_keep_boundary_layer_cells_from_collapsing(method, bl_me
         free = smooth(mesh, method, 10, topology=topo, floors=None).points
         assert (edges(free)[thin_edge] / l0[thin_edge]).min() < 0.01
         assert summarize(free, topo)["edge_ratio"] > 10 * s["edge_ratio"]
+
+
+# --------------------------------------------------------------------------- untangling, pair moves, sizes (issue 12)
+
+
+def nonconvex_mesh(trial: int, node: int, xy) -> Mesh2D:
+    """A jittered 5 x 4 quad grid with one free node pushed into a neighbouring quad (one non-convex quad)."""
+    m = valid_jitter(generate.structured_quads(5, 4), 0.25, trial)
+    p = m.points.copy()
+    p[node] = xy
+    return m.with_points(p)
+
+
+# (jitter seed, node, position, a node whose Laplacian position and halved moves all keep as many
+# invalid cells as staying, while its kernel is not empty): found by a search over such meshes
+STUCK = [(7, 10, (3.66, 0.27), 9), (1, 16, (3.33, 2.32), 22), (42, 8, (1.23, 0.26), 7)]
+
+
+@pytest.mark.parametrize("trial,node,xy,stuck", STUCK)
+def test_kernel_centroid_matches_the_per_node_reference(trial, node, xy, stuck):
+    from anglesmooth.smoothers._untangle import kernel_centroid
+    from reference import cells_of, incident, neighbours
+
+    mesh = nonconvex_mesh(trial, node, xy)
+    topo = build_topology(mesh)
+    p = mesh.points
+    cells = cells_of(topo)
+    inc, nb = incident(cells, len(p)), neighbours(cells, len(p))
+    pl = [list(map(float, x)) for x in p]
+    checked = 0
+    for blk in topo.blocks():
+        sub = np.arange(blk.size)
+        cen, ok = kernel_centroid(p, topo, blk, sub)
+        for k, i in enumerate(topo.free_nodes[blk.nodes].tolist()):
+            ref = kernel_centroid_ref(pl, i, inc[i], nb[i])
+            assert ok[k] == (ref is not None)
+            if ref is not None:
+                np.testing.assert_allclose(cen[k], ref, rtol=0, atol=1e-9)
+                checked += 1
+    assert checked == topo.n_free  # every kernel here has an area (the pushed node's too)
+
+
+@pytest.mark.parametrize("trial,node,xy,stuck", STUCK)
+def test_untangling_takes_the_kernel_where_laplacian_moves_stay_invalid(trial, node, xy, stuck):
+    """The mechanism of issue 12's non-convex quads: at the stuck node the Laplacian position and its
+    halved moves have as many invalid cells as staying (a rule that takes a move only when it scores
+    higher, or a compass search on the flat invalid score, never moves); the kernel centroid is valid."""
+    from anglesmooth.smoothers._local import BlockGeometry, laplacian_target
+    from anglesmooth.smoothers._untangle import kernel_centroid, untangle
+
+    mesh = nonconvex_mesh(trial, node, xy)
+    topo = build_topology(mesh)
+    p = mesh.points
+    assert summarize(p, topo)["nonconvex_quads"] == 1
+    loc = int(np.flatnonzero(topo.free_nodes == stuck)[0])
+    blk = next(b for b in topo.blocks() if b.nodes.start <= loc < b.nodes.stop)
+    sub = np.array([loc - blk.nodes.start])
+    g = BlockGeometry(p, topo, blk).restrict(sub)
+    cur = p[[stuck]]
+    lap = laplacian_target(p, topo, blk)[sub]
+    s_cur = g.score(cur)[0]
+    assert s_cur == -4.0  # one non-convex quad
+    assert all(g.score(cur + f * (lap - cur))[0] == s_cur for f in (1.0, 0.5, 0.25))
+    k, ok = kernel_centroid(p, topo, blk, sub)
+    assert ok[0] and g.score(k)[0] > -1.0
+    x, sx = untangle(g, p, topo, blk, sub, cur)
+    assert sx[0] > -1.0 and g.score(x)[0] == sx[0]
+
+
+@pytest.mark.parametrize("trial,node,xy,stuck", STUCK)
+@pytest.mark.parametrize("method", ["smart-laplacian", "optimization"])
+def test_untangling_pass_matches_the_per_node_reference(method, trial, node, xy, stuck):
+    """Two passes of smart-laplacian (the Laplacian move or its halves where the local quality does not
+    decrease; invalid nodes untangled) and of optimization's untangling stage (``iterations=0``)."""
+    mesh = nonconvex_mesh(trial, node, xy)
+    topo = build_topology(mesh)
+    opts = {"iterations": 0} if method == "optimization" else {}
+    p = q = mesh.points
+    for _ in range(2):
+        p = get_smoother(method).step(p, topo, **opts).points
+        q = reference_untangle_pass(q, topo, method)
+    np.testing.assert_allclose(p, q, rtol=0, atol=1e-12 * np.ptp(mesh.points))
+    assert np.abs(p - mesh.points).max() > 0.1
+
+
+@pytest.mark.parametrize("trial,node,xy", [(36, 20, (2.69, 1.96)), (47, 9, (3.82, 0.07))])
+@pytest.mark.parametrize("method", ["smart-laplacian", "optimization"])
+def test_guarded_methods_repair_a_non_convex_input_quad(method, trial, node, xy):
+    """Before issue 12's untangling, 10 passes of optimization left this quad non-convex (its compass
+    search never leaves the flat invalid score); now both methods repair it."""
+    mesh = nonconvex_mesh(trial, node, xy)
+    topo = build_topology(mesh)
+    assert summarize(mesh.points, topo)["nonconvex_quads"] == 1
+    s = summarize(smooth(mesh, method, 10, topology=topo).points, topo)
+    assert s["nonconvex_quads"] == 0 and s["inverted"] == 0 and s["min_angle"] > 60
+    if method == "optimization":
+        old = summarize(smooth(mesh, method, 10, topology=topo, untangling=False, pairs_below=0).points, topo)
+        assert old["nonconvex_quads"] == 1
+
+
+#: A patch of the distorted toothed quad mesh (quality matrix, seed 1) after 10 passes of optimization
+#: without pair moves: two flattened boundary quads in a row (corners 0-4 on the part's boundary, the
+#: other outer nodes are the patch's boundary), their free corners 7, 12, 14; 9.4 / 170.6 deg.
+FLAT_POINTS = [[13.801, 0.0], [33.523, 9.043], [53.245, 18.086], [72.967, 27.129], [92.689, 36.172], [50.28, 61.17],
+               [22.232, 46.69], [74.696, 30.04], [68.823, 72.788], [90.599, 41.993], [0.0, 28.172], [22.401, 46.845],
+               [39.761, 13.737], [4.097, 14.432], [42.433, 15.132]]
+FLAT_QUADS = [[3, 4, 9, 7], [5, 7, 9, 8], [6, 10, 13, 12], [1, 12, 13, 0], [5, 11, 14, 7], [3, 7, 14, 2],
+              [1, 2, 14, 12], [6, 12, 14, 11]]
+
+
+def test_optimization_lifts_flat_boundary_quads_by_moving_their_free_corners_together():
+    """Issue 12's trap: lifting either free corner of a flattened boundary quad alone turns the other
+    free corner towards 180 deg, so every single move lowers the local minimum and a per-node max-min
+    optimization (and smart Laplacian) stays at 9.4 deg; Laplacian, which does not care, gets 57 deg.
+    The pair move translates the free corners (7, 12, 14: a chain of two such quads) together."""
+    mesh = Mesh2D.from_arrays(np.array(FLAT_POINTS), quads=np.array(FLAT_QUADS))
+    topo = build_topology(mesh, np.arange(15) < 5)
+    assert sorted(topo.free_nodes.tolist()) == [7, 12, 14]
+    before = summarize(mesh.points, topo)
+    assert before["min_angle"] < 10
+    stuck = summarize(smooth(mesh, "optimization", 10, topology=topo, pairs_below=0).points, topo)
+    assert stuck["min_angle"] < 10
+    lap = summarize(smooth(mesh, "laplacian", 10, topology=topo).points, topo)
+    s = summarize(smooth(mesh, "optimization", 10, topology=topo).points, topo)
+    assert s["min_angle"] > lap["min_angle"] > 50 and s["max_angle"] < lap["max_angle"]
+    assert s["nonconvex_quads"] == 0 and s["inverted"] == 0
+
+
+def test_pair_moves_never_lower_the_quad_quality_of_the_mesh():
+    """The pairs' score is the per-node one: quad corners count min(angle, 180 - angle)."""
+    from anglesmooth.quality import cell_max_angles, cell_min_angles
+    from anglesmooth.smoothers._pairs import pair_moves
+
+    def quality(pts, topo):
+        return np.minimum(cell_min_angles(pts, topo), 180 - cell_max_angles(pts, topo)).min()
+
+    for seed in range(3):
+        mesh = valid_jitter(generate.structured_quads(6, 5), 0.45, seed)
+        topo = build_topology(mesh)
+        p = mesh.points
+        out = pair_moves(p, topo, below=89.0)
+        moved = np.flatnonzero((out != p).any(axis=1))
+        assert moved.size and not topo.fixed[moved].any()
+        assert quality(out, topo) >= quality(p, topo) - 1e-9
+
+
+def test_optimization_size_guard_keeps_the_area_ratio_near_laplacian():
+    """Issue 12: an angle-only objective shrinks a cell to a small well-shaped one (paper-style quads:
+    area ratio 938 against Laplacian's 53).  The size guard keeps it within a few times Laplacian's
+    (measured on this mesh: Laplacian 53, optimization 111, without the guard 2,450)."""
+    mesh = generate.paper_quad_mesh(seed=2)
+    topo = build_topology(mesh)
+    ratio = {}
+    for name, opts in (("lap", ("laplacian", {})), ("opt", ("optimization", {})), ("free", ("optimization", {"size_beta": None}))):
+        ratio[name] = summarize(smooth(mesh, opts[0], 10, topology=topo, **opts[1]).points, topo)["area_ratio"]
+    assert ratio["opt"] < 3 * ratio["lap"] < ratio["free"]

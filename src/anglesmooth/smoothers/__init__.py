@@ -48,7 +48,7 @@ SMOOTHERS: dict[str, Smoother] = {
         Smoother(
             "smart-laplacian",
             smart_laplacian.step,
-            "Laplacian move kept only if the local minimum angle improves",
+            "Laplacian move (or half of it) kept only if the local minimum angle does not decrease",
             "Freitag 1997",
         ),
         Smoother(
