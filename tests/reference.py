@@ -137,8 +137,10 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
     For ``angle`` with ``guard`` this is the robust candidate selection (the
     angle position when its local quality is at least ``accept_above`` degrees
     -- ``accept_above_quad`` for a node of a quad -- whether or not staying
-    would score higher, else the best of five candidates, staying included;
-    where every candidate but staying is invalid, the guarded Laplacian move)
+    would score higher, else of the four other candidates, staying included,
+    the one nearest the angle position among those at least that good, else
+    the best of five; where every candidate but staying is invalid, the
+    guarded Laplacian move)
     without the local optimization of the worst nodes (``opt_iterations=0``).
     """
     p = [list(map(float, x)) for x in points]
@@ -184,6 +186,11 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
             cands = [ang, lap, [(ang[0] + lap[0]) / 2, (ang[1] + lap[1]) / 2], [(ang[0] + cur[0]) / 2, (ang[1] + cur[1]) / 2], cur]
             scores = [local_min_angle(_with(p, i, x), inc[i]) for x in cands]
             p[i] = cands[int(np.argmax(scores))]
+            # the candidate nearest the angle position among those good enough (first on ties)
+            near = [k for k in range(1, 5) if scores[k] >= math.radians(accept_above_quad if has_quad else accept_above)]
+            if near:
+                dist = [(cands[k][0] - ang[0]) ** 2 + (cands[k][1] - ang[1]) ** 2 for k in near]
+                p[i] = cands[near[int(np.argmin(dist))]]
             if all(s < 0 for s in scores[:4]) and scores[4] >= 0:
                 # every move invalid (negative), staying valid (>= 0, a 0 deg corner included):
                 # the guarded Laplacian move, halved until valid, else stay

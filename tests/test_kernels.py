@@ -23,7 +23,7 @@ from anglesmooth.errors import ConfigurationError
 from anglesmooth.mesh import Mesh2D
 from anglesmooth.smoothers import SMOOTHERS, _fast
 from anglesmooth.smoothers._local import BlockGeometry, angle_target, laplacian_target, local_scale, optimize
-from anglesmooth.topology import build_topology
+from anglesmooth.topology import build_topology, signed_areas
 
 def flat_quad() -> Mesh2D:
     """A quad flattened onto the boundary with its free corners almost touching: every full or half
@@ -176,8 +176,12 @@ def test_kernels_agree_on_random_candidates_valid_invalid_and_degenerate(name, m
         sub = np.arange(0, blk.size, 2)
         np.testing.assert_array_equal(fast.restrict(sub).score(X[:, sub]), ref.restrict(sub).score(X[:, sub]))
         scale = local_scale(pts, topo, blk)
-        for band in (None, 0.8, 0.5):  # the compiled compass search against optimize's numpy loop
-            for a, b in zip(optimize(fast, cur, scale, 4, area_band=band), optimize(ref, cur, scale, 4, area_band=band)):
+        areas = np.sort(signed_areas(pts, topo.tri, topo.quad))
+        binding = (areas[len(areas) // 4], areas[3 * len(areas) // 4])  # area limits that bind for many nodes
+        # the compiled compass search against optimize's numpy loop
+        for band, limits in ((None, None), (0.8, None), (0.5, None), (0.8, binding)):
+            kw = dict(area_band=band, area_limits=limits)
+            for a, b in zip(optimize(fast, cur, scale, 4, **kw), optimize(ref, cur, scale, 4, **kw)):
                 np.testing.assert_array_equal(a, b)
         np.testing.assert_array_equal(_fast.laplacian_target(pts, topo, blk), laplacian_target(pts, topo, blk))
         np.testing.assert_array_equal(_fast.local_scale(pts, topo, blk, sub), local_scale(pts, topo, blk, sub))

@@ -425,6 +425,32 @@ def test_guarded_methods_keep_boundary_layer_cells_from_collapsing(method, bl_me
         assert summarize(free, topo)["edge_ratio"] > 10 * s["edge_ratio"]
 
 
+def test_default_angle_optimization_keeps_the_pass_start_area_range():
+    """Stage 4's compass search never takes a node's cells outside the mesh's area range at the start
+    of the pass (the per-step 0.8 band compounded over passes into a size-uniformity loss): with the
+    limits, every node's smallest / largest incident cell stays within [min(lo, start), max(hi, start)];
+    without them the same search leaves that range (so the check can fail)."""
+    from anglesmooth.smoothers._local import BlockGeometry, local_scale, optimize
+
+    mesh = generate.paper_triangle_mesh(seed=0)
+    topo = build_topology(mesh)
+    pts = smooth(mesh, "laplacian", passes=1).points
+    areas = np.sort(signed_areas(pts, topo.tri, topo.quad))
+    lo, hi = areas[len(areas) // 10], areas[-len(areas) // 10]  # limits that bind for many nodes
+    escaped = {True: 0, False: 0}
+    for blk in topo.blocks():
+        geom = BlockGeometry(pts, topo, blk)
+        cur = pts[topo.free_nodes[blk.nodes]]
+        l0, h0 = geom.area_range(cur)
+        for limited in (True, False):
+            x, _ = optimize(geom, cur, local_scale(pts, topo, blk), 4, area_band=0.5,
+                            area_limits=(lo, hi) if limited else None)
+            l1, h1 = geom.area_range(x)
+            escaped[limited] += int(((l1 < np.minimum(lo, l0)) | (h1 > np.maximum(hi, h0))).sum())
+    assert escaped[True] == 0
+    assert escaped[False] > 0
+
+
 # --------------------------------------------------------------------------- untangling, pair moves, sizes (issue 12)
 
 

@@ -72,3 +72,61 @@ def test_bow_tie_fixes_its_shared_node_and_unused_nodes():
     unused = np.setdiff1d(np.arange(mesh.n_points), mesh.triangles)
     assert cells.fixed.all()  # the shared node and every other used node lie on the boundary
     assert cells.fixed_reasons["unused"] == unused.size == 4
+
+
+def _layered_mixed() -> Mesh2D:
+    """Thin quads graded towards the bottom (a boundary layer) below a row of triangles, with a hole
+    (a removed quad): every table kind (edge and diagonal spokes, both incidences) and hole boundary."""
+    from anglesmooth.generate import structured_quads
+
+    m = structured_quads(8, 6)
+    p = m.points.copy()
+    p[:, 1] = p[:, 1].max() * (p[:, 1] / p[:, 1].max()) ** 3
+    quads = np.delete(m.quads, [19], axis=0)  # a hole away from the outer boundary
+    top = quads[-8:]
+    tri = np.concatenate([top[:, [0, 1, 2]], top[:, [0, 2, 3]]])
+    return Mesh2D.from_arrays(p, triangles=tri, quads=quads[:-8])
+
+
+@pytest.mark.parametrize("name", [*MESHES, "layered-mixed"])
+def test_int32_tables_hold_the_int64_build_values(name, monkeypatch):
+    """The index tables are int32 when the mesh allows (half the memory); forcing int64 (what a mesh
+    beyond 2**31 entries gets) gives the same values in every table and every block."""
+    from anglesmooth.topology import _keys
+
+    mesh = _layered_mixed() if name == "layered-mixed" else MESHES[name]()
+    fix = np.arange(0, mesh.n_points, 5)
+    small = build_topology(mesh, fix)
+    monkeypatch.setattr(_keys, "INT32_MAX", 0)
+    wide = build_topology(mesh, fix)
+    assert small.tri_verts.dtype == small.ring_nbr.dtype == small.edges.dtype == np.int32
+    assert wide.tri_verts.dtype == wide.ring_nbr.dtype == wide.edges.dtype == np.int64
+    for f in fields(Topology):
+        a, b = getattr(small, f.name), getattr(wide, f.name)
+        if isinstance(a, np.ndarray):
+            assert a.shape == b.shape and np.array_equal(a, b), f.name
+        elif f.name != "_cache":
+            assert a == b, f.name
+    for p, q in zip(small.blocks(), wide.blocks(), strict=True):
+        for f in fields(p):
+            a, b = getattr(p, f.name), getattr(q, f.name)
+            assert np.array_equal(a, b) if isinstance(a, np.ndarray) else a == b, f.name
+
+
+@pytest.mark.parametrize("name", ["layered-mixed", "distorted", "paper-mixed"])
+def test_input_floors_in_chunks_equal_the_whole_arrays(name, monkeypatch):
+    """The driver's per-incidence-row input floors are computed in chunks of cells and rows (bounded
+    temporaries); chunks of 7 give the same arrays as one chunk, and the six columns are views of
+    the kernels' packed array."""
+    from anglesmooth.smoothers import _floors
+
+    mesh = _layered_mixed() if name == "layered-mixed" else MESHES[name]()
+    topo = build_topology(mesh)
+    whole = _floors.input_floors(mesh.points, topo)
+    monkeypatch.setattr(_floors, "_CHUNK", 7)
+    chunked = _floors.input_floors(mesh.points, topo)
+    for a, b in zip(whole, chunked, strict=True):
+        assert a.shape == b.shape and np.array_equal(a, b)
+    if whole.active:
+        assert whole.t_area2.any() or whole.q_area2.any()
+        assert all(np.shares_memory(col, whole.packed) for col in whole[:6])

@@ -141,11 +141,13 @@ Methods (all from `anglesmooth.smooth`, boundary nodes fixed):
   their diagonal node at 45°), with no validity check.
 * **Angle-based, robust default** — `guard=True` (the library default): per node, the angle target where its
   cells' smallest angle there is at least 20° (whether or not staying would score higher; nodes whose input cells
-  were all well shaped only where it is no worse than staying); otherwise the best of five candidates (angle
-  target, Laplacian target, their midpoint, the half step, the current position) by local minimum angle (quads:
-  `min(angle, 180° - angle)`) that inverts nothing, or the halved Laplacian move where every move is invalid; then
-  a few steps of area-constrained local max-min-angle optimization for the worst ~5 % of nodes (if below two
-  thirds of the ideal angle: 40°, 60° at quad nodes). This is a *hybrid* that goes beyond the paper; it is shown
+  were all well shaped only where it is no worse than staying); otherwise, of four other candidates (Laplacian
+  target, its midpoint with the angle target, the half step, the current position), the one nearest the angle
+  target whose local minimum angle (quads: `min(angle, 180° - angle)`) is at least 20°, else the best of the five
+  (none inverting anything), or the halved Laplacian move where every move is invalid; then 4 steps of
+  area-constrained local max-min-angle optimization for the worst ~5 % of nodes (if below two thirds of the
+  ideal angle: 40°, 60° at quad nodes), which never takes a cell outside the mesh's area range at the start of
+  the pass. This is a *hybrid* that goes beyond the paper; it is shown
   to say what a user gets by default.
 * **Optimization-based** — local max-min-angle compass search per node (10 iterations per pass), the quality
   reference; not in the paper's tables.

@@ -194,7 +194,7 @@ def read(path, *, file_format: str | None = None) -> Mesh2D:
     binary = header[1] if is_gmsh else formats.detect_binary(p, used)
     src = _Source(m, used, header[0] if is_gmsh else None, header[1] if is_gmsh else None, False, binary=binary, **extra)
     try:
-        return _to_mesh2d(m, src)
+        return _to_mesh2d(m, src, owned=True)  # m is ours and kept unmodified in src: share its cells
     except (InvalidMeshError, UnsupportedMeshError) as e:
         raise type(e)(f"'{p}': {e}") from None
     except MemoryError:

@@ -79,7 +79,9 @@ def _check_cell_types(m) -> None:
             )
 
 
-def to_mesh2d(m, src: Source) -> Mesh2D:
+def to_mesh2d(m, src: Source, *, owned: bool = False) -> Mesh2D:
+    """The :class:`Mesh2D` of meshio mesh ``m``; ``owned``: ``m`` is the reader's own (kept unmodified in
+    ``src``), so int64 connectivity is shared with it rather than copied (a caller's mesh is copied)."""
     _check_cell_types(m)
     pts, frame = _points(m)
     src = replace(src, had_z=frame is not None)
@@ -107,7 +109,7 @@ def to_mesh2d(m, src: Source) -> Mesh2D:
                 f"cell {cid + i} ({block.type} {i} of block {b}) references node {int(bad)}, "
                 f"but the mesh has {n} nodes"
             )
-        data = data.astype(np.int64)
+        data = data.astype(np.int64, copy=not owned)
         if is_tri or is_quad:
             k = 3 if is_tri else 4
             (tri if is_tri else quad).append(data[:, :k])
@@ -125,7 +127,7 @@ def to_mesh2d(m, src: Source) -> Mesh2D:
     if not tri and not quad:
         raise InvalidMeshError("the mesh has no triangle or quad cells")
 
-    def cat(parts, width):  # every part is a fresh array: a single one needs no copy
+    def cat(parts, width):  # every part is fresh or the reader's own: a single one needs no copy
         if len(parts) == 1:
             return parts[0]
         return np.concatenate(parts) if parts else np.zeros((0, width) if width else 0, np.int64)

@@ -116,7 +116,7 @@ METHOD_KERNELS = {
 # every kernel's parameters are known)
 PER_NODE = {"nodes": 0, "x": 0, "X": 1, "scale": 0}
 SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "rp", "nbr", "tp", "tv", "qp", "qv", "directions", "fl"}
-SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep"}  # or one value per node, or empty
+SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest", "alo", "ahi"}  # or one value per node, or empty
 
 _ENV = "ANGLESMOOTH_KERNEL"
 _kernels = None  # the compiled module, imported on first use
@@ -445,11 +445,12 @@ def _floors(floors) -> np.ndarray:
     return np.zeros((0, 0)) if floors is None or not floors.active else floors.packed
 
 
-def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None):
+def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, nearest=False):
     """Stages 1 and 2 of the robust ``angle`` update, fused per node (see :func:`.angle.step`).
 
     ``good``: the acceptance score threshold, one per block node or one for all; ``keep``: None or
-    a bool per block node, where the angle position must also be no worse than staying.
+    a bool per block node, where the angle position must also be no worse than staying; ``nearest``:
+    stage 2 takes the good-enough candidate nearest the angle position (see :func:`.angle.step`).
     """
     rp, sp, tp, qp = _csr(topo)
     good = np.ascontiguousarray(np.broadcast_to(np.asarray(good, dtype=np.float64), (blk.size,)))
@@ -457,7 +458,7 @@ def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None):
         _k().angle_choose,
         points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,
         rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, good, _floors(floors),
-        np.zeros(0, np.bool_) if keep is None else np.ascontiguousarray(keep, dtype=np.bool_),
+        np.zeros(0, np.bool_) if keep is None else np.ascontiguousarray(keep, dtype=np.bool_), bool(nearest),
     )
 
 
@@ -489,15 +490,17 @@ class FastGeometry:
         s = _run(_k().score, self._pts, Xf, self._nodes, tp, t.tri_verts, qp, t.quad_verts, self._fl)
         return s.reshape(X.shape[:-2] + (self.n,))
 
-    def compass(self, x, scale, iterations: int, radius: float, area_band: float | None, directions: np.ndarray):
+    def compass(self, x, scale, iterations: int, radius: float, area_band: float | None, directions: np.ndarray,
+                area_limits=None):
         """:func:`._local.optimize` from positions ``x`` (n, 2): (positions, scores)."""
         t = self._topo
         _, _, tp, qp = _csr(t)
         band = -1.0 if area_band is None else float(area_band)
+        lo, hi = (-np.inf, np.inf) if area_limits is None else (float(area_limits[0]), float(area_limits[1]))
         return _run(
             _k().compass, self._pts, np.ascontiguousarray(x, dtype=np.float64), self._nodes, tp, t.tri_verts, qp,
             t.quad_verts, np.ascontiguousarray(scale, dtype=np.float64), int(iterations), float(radius), band,
-            directions, self._fl,
+            directions, self._fl, lo, hi,
         )
 
 

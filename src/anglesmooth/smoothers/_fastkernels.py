@@ -365,12 +365,13 @@ def ring_mean(pts, nodes, free, rp, nbr, lengths):
 
 
 @_kernel
-def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good, fl, keep):
+def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good, fl, keep, nearest):
     """Stages 1 and 2 of the robust ``angle`` update (``angle.step``), fused per node.
 
     ``good`` is the per-node acceptance threshold; where ``keep`` (empty: nowhere) the angle position
-    must also be no worse than staying.  Returns the chosen positions, their scores and
-    whether the angle position was invalid.
+    must also be no worse than staying.  ``nearest``: stage 2 takes the candidate nearest the angle
+    position among those scoring at least ``good`` (not where ``keep``), else the best.  Returns the
+    chosen positions, their scores and whether the angle position was invalid.
     """
     n = nodes.shape[0]
     new = np.empty((n, 2))
@@ -395,6 +396,9 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
         lx, ly = _node_ring_mean(pts, f, free, rp, nbr, False)
         bx, by, bs = ax, ay, s_a
         stuck = s_a <= INVALID + 0.5
+        near_ok = nearest and not (keep.shape[0] > 0 and keep[i])
+        nx = ny = ns = 0.0
+        nd = np.inf
         for k in range(4):
             if k == 0:
                 px, py = lx, ly
@@ -404,13 +408,21 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
                 px, py = 0.5 * (ax + cx), 0.5 * (ay + cy)
             else:
                 px, py = cx, cy
-            sk = _node_score_rows(px, py, f, tp, qp, buf, fl, bs)  # exact where it beats bs
+            # exact where it beats bs or, with near_ok, where it is good enough (a cut below good[i])
+            sk = _node_score_rows(px, py, f, tp, qp, buf, fl, min(bs, good[i] - 1e-9) if near_ok else bs)
             if k < 3:
                 stuck = stuck & (sk <= INVALID + 0.5)
             elif stuck:
                 stuck = sk > INVALID + 0.5  # staying is valid
             if sk > bs:
                 bx, by, bs = px, py, sk
+            if near_ok and sk >= good[i]:
+                dx, dy = px - ax, py - ay
+                d2 = dx * dx + dy * dy
+                if d2 < nd:  # np.argmin: the first nearest
+                    nx, ny, ns, nd = px, py, sk, d2
+        if nd < np.inf:
+            bx, by, bs = nx, ny, ns
         if stuck:  # stage 3, ``first_valid``: the Laplacian move, halved until valid (else staying)
             dx, dy = lx - cx, ly - cy
             fr = 1.0
@@ -426,8 +438,9 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
 
 
 @_kernel
-def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, directions, fl):
-    """``optimize``: compass search per node, optionally within an area band (``band`` < 0: none)."""
+def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, directions, fl, alo, ahi):
+    """``optimize``: compass search per node, optionally within an area band (``band`` < 0: none)
+    and the area limits ``alo``, ``ahi`` (-inf, inf: none)."""
     n = nodes.shape[0]
     out = np.empty((n, 2))
     s_out = np.empty(n)
@@ -439,8 +452,9 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
         s0 = _node_score_rows(px, py, f, tp, qp, buf, fl, -np.inf)
         lo0 = hi0 = 0.0
         if band >= 0:
-            lo0, hi0 = _node_area_range_rows(px, py, f, tp, qp, buf)
-            lo0, hi0 = band * lo0, hi0 / band
+            lr, hr = _node_area_range_rows(px, py, f, tp, qp, buf)
+            lo0 = max(band * lr, min(alo, lr))
+            hi0 = min(hr / band, max(ahi, hr))
         r = radius * scale[i]
         for _ in range(iterations):
             bx = by = 0.0

@@ -29,6 +29,7 @@ KEEP_QUAD = 30.0
 KEEP_TRI = 40.0
 KEEP_STRETCH = 1.5
 KEEP_RECT = 15.0
+_CHUNK = 1 << 16  # cells or rows per chunk of input_floors (bounded temporaries, same values)
 
 
 class Floors(NamedTuple):
@@ -100,45 +101,45 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
     poor = np.zeros(n, bool)  # per point: some cell of it is not well shaped
     keep_q = np.zeros(n, bool)  # per point: a corner of a near-rectangular stretched quad
     an_node = np.zeros(n, bool)  # per point: a corner of an anisotropic cell
-    for cells in (topo.tri, topo.quad):
-        k = cells.shape[1]
-        if not cells.shape[0]:
-            continue
-        e, good, rect = _cell_shape(x, y, cells)
-        emax, emin = np.max(e, axis=0), np.min(e, axis=0)
-        an = emax >= aniso * emin
-        an_node[cells[an].ravel()] = True
-        poor[cells[~good].ravel()] = True
-        if k == 4:
-            keep_q[cells[rect & (emax >= KEEP_STRETCH * emin)].ravel()] = True
+    # in chunks of cells / rows: element-wise, so the same values, with temporaries of a bounded size
+    for all_cells in (topo.tri, topo.quad):
+        k = all_cells.shape[1]
+        for c0 in range(0, all_cells.shape[0], _CHUNK):
+            cells = all_cells[c0 : c0 + _CHUNK]
+            e, good, rect = _cell_shape(x, y, cells)
+            emax, emin = np.max(e, axis=0), np.min(e, axis=0)
+            an = emax >= aniso * emin
+            an_node[cells[an].ravel()] = True
+            poor[cells[~good].ravel()] = True
+            if k == 4:
+                keep_q[cells[rect & (emax >= KEEP_STRETCH * emin)].ravel()] = True
     keep = ~poor[topo.free_nodes] | keep_q[topo.free_nodes]
-    out = []
-    for verts in (topo.tri_verts, topo.quad_verts):
+    # the six columns are views of one zero-filled (6, rows) array, the kernels' ``packed``: written
+    # only where a floor applies (np.zeros pages that are never written take no memory)
+    nrow = (topo.tri_verts.shape[0], topo.quad_verts.shape[0])
+    packed = np.zeros((6, max(nrow)))
+    out = [packed[k, : nrow[k // 3]] for k in range(6)]
+    for j, verts in enumerate((topo.tri_verts, topo.quad_verts)):
         k = verts.shape[1]
-        zero = np.zeros(verts.shape[0])
-        rows = np.flatnonzero(an_node[verts[:, 0]])  # rows of a node with an anisotropic cell
-        if not rows.size:
-            out += [zero, zero, zero]
-            continue
-        e, _, _ = _cell_shape(x, y, verts[rows])
-        an = np.max(e, axis=0) >= aniso * np.min(e, axis=0)
-        px = [np.take(x, verts[rows, m]) for m in range(k)]
-        py = [np.take(y, verts[rows, m]) for m in range(k)]
-        if k == 3:
-            area2 = (px[1] - px[0]) * (py[2] - py[0]) - (py[1] - py[0]) * (px[2] - px[0])
-        else:
-            area2 = (px[2] - px[0]) * (py[3] - py[1]) - (py[2] - py[0]) * (px[3] - px[1])
-        f = np.where(an, fraction, 0.0)
-        cols = []
-        for v in (f * np.abs(area2), f * e[0], f * e[k - 1]):
-            c = zero.copy()
-            c[rows] = v
-            cols.append(c)
-        out += cols
-    if an_node.any():
-        packed = np.zeros((6, max(out[0].shape[0], out[3].shape[0])))
-        for k, a in enumerate(out):
-            packed[k, : a.shape[0]] = a
-    else:
+        all_rows = np.flatnonzero(an_node[verts[:, 0]])  # rows of a node with an anisotropic cell
+        for r0 in range(0, all_rows.shape[0], _CHUNK):
+            _row_floors(x, y, verts, all_rows[r0 : r0 + _CHUNK], out[3 * j : 3 * j + 3], fraction, aniso)
+    if not an_node.any():
         packed = np.zeros((0, 0))
     return Floors(*out, packed, keep)
+
+
+def _row_floors(x, y, verts, rows, out, fraction, aniso) -> None:
+    """The floors of incidence rows ``rows`` of ``verts``, written into the three columns ``out``."""
+    k = verts.shape[1]
+    e, _, _ = _cell_shape(x, y, verts[rows])
+    an = np.max(e, axis=0) >= aniso * np.min(e, axis=0)
+    px = [np.take(x, verts[rows, m]) for m in range(k)]
+    py = [np.take(y, verts[rows, m]) for m in range(k)]
+    if k == 3:
+        area2 = (px[1] - px[0]) * (py[2] - py[0]) - (py[1] - py[0]) * (px[2] - px[0])
+    else:
+        area2 = (px[2] - px[0]) * (py[3] - py[1]) - (py[2] - py[0]) * (px[3] - px[1])
+    f = np.where(an, fraction, 0.0)
+    for c, v in zip(out, (f * np.abs(area2), f * e[0], f * e[k - 1])):
+        c[rows] = v

@@ -439,6 +439,7 @@ def optimize(
     iterations: int = 3,
     radius: float = 0.25,
     area_band: float | None = None,
+    area_limits: tuple[float, float] | None = None,
 ):
     """Local max-min-angle optimization by compass (pattern) search, vectorized over nodes.
 
@@ -454,15 +455,21 @@ def optimize(
     With ``area_band`` (0 < band < 1), a step is only taken if the node's
     smallest incident cell keeps at least ``band`` times, and its largest at
     most ``1/band`` times, the area they had at the start: the angle alone
-    would happily shrink a cell to a sliver of good shape.  Returns
-    (positions, scores).
+    would happily shrink a cell to a sliver of good shape.  ``area_limits``
+    (lo, hi), with ``area_band``, also keeps that smallest cell at least at
+    ``min(lo, its start area)`` and the largest at most ``max(hi, its start
+    area)`` (the default ``angle`` passes the mesh's area range at the start
+    of the pass).  Returns (positions, scores).
     """
     if isinstance(geom, _fast.FastGeometry):  # the same search, one compiled loop per node
-        return geom.compass(x, scale, iterations, radius, area_band, _COMPASS)
+        return geom.compass(x, scale, iterations, radius, area_band, _COMPASS, area_limits)
     s0 = geom.score(x)
     if area_band is not None:
-        lo0, hi0 = geom.area_range(x)
-        lo0, hi0 = area_band * lo0, hi0 / area_band
+        lr, hr = geom.area_range(x)
+        lo0, hi0 = area_band * lr, hr / area_band
+        if area_limits is not None:
+            lo0 = np.maximum(lo0, np.minimum(area_limits[0], lr))
+            hi0 = np.minimum(hi0, np.maximum(area_limits[1], hr))
     r = radius * scale
     idx = np.arange(x.shape[0])
     for _ in range(iterations):

@@ -1,0 +1,108 @@
+"""Directed cell edges and the integer-key sorts the topology build is made of."""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Largest count (nodes, or four times the corners of all cells: ring entries plus diagonal spokes) for
+#: which the index tables are int32; beyond it int64.
+INT32_MAX = 2**31 - 1
+
+
+def index_dtype(n_points: int, n_corners: int):
+    """The integer type of the topology's index tables: int32 when every node id, corner, edge and ring
+    entry fits (half the memory and the page faults of int64), else int64."""
+    return np.dtype(np.int32) if max(n_points, 4 * n_corners) <= INT32_MAX else np.dtype(np.int64)
+
+
+def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
+    """Undirected key ``min * n + max`` of every directed edge a -> b."""
+    key = np.minimum(a, b).astype(np.int64)
+    key *= n
+    key += np.maximum(a, b)
+    return key
+
+
+def _stable_order(key: np.ndarray):
+    """Stable argsort of a non-negative integer ``key``; returns (order, sorted keys), both int64.
+
+    When key and row index fit in 63 bits together, the row index is packed
+    into the low bits and a plain ``np.sort`` (SIMD, about 10x faster than a
+    stable ``argsort`` on millions of int64) gives the stable order; otherwise
+    it falls back to ``np.argsort(kind="stable")``.
+    """
+    m = key.shape[0]
+    shift = max(int(m - 1).bit_length(), 1)
+    if m == 0 or int(key.max()).bit_length() + shift <= 63:
+        packed = key.astype(np.int64)
+        packed <<= shift
+        packed |= np.arange(m, dtype=np.int64)
+        packed.sort()
+        order = packed & ((1 << shift) - 1)
+        packed >>= shift
+        return order, packed
+    order = np.argsort(key, kind="stable")
+    return order, key[order].astype(np.int64)
+
+
+def _cell_edges(tri: np.ndarray, quad: np.ndarray, dtype=np.int64):
+    """Directed edges (a -> b) of every cell; edge h is also corner h (at node a[h])."""
+    return _cell_shift(tri, quad, 0, dtype), _cell_shift(tri, quad, 1, dtype)
+
+
+def _cell_shift(tri: np.ndarray, quad: np.ndarray, step: int, dtype=np.int64) -> np.ndarray:
+    """For every corner (triangles, then quads, cell by cell), the node ``step`` places further counter-clockwise."""
+    out = np.empty(tri.size + quad.size, dtype)
+    for cells, part in ((tri, out[: tri.size]), (quad, out[tri.size :])):
+        k = cells.shape[1]
+        part = part.reshape(-1, k)
+        s = step % k
+        part[:, : k - s] = cells[:, s:]
+        part[:, k - s :] = cells[:, :s]
+    return out
+
+
+def _edge_cell(nt: int, nq: int) -> np.ndarray:
+    """The cell of every directed edge / corner."""
+    return np.concatenate([np.repeat(np.arange(nt), 3), nt + np.repeat(np.arange(nq), 4)])
+
+
+class _HalfEdges:
+    """Directed cell edges sorted by their undirected key (stable): twins are adjacent.
+
+    ``order`` sorts the edges, ``ks`` are the sorted keys ``lo * n + hi`` and
+    ``a_s`` the sorted tails; ``same[q]`` says that sorted position q + 1 is
+    the same undirected edge as q, ``dup[q]`` that it also runs the same way.
+    """
+
+    def __init__(self, tri: np.ndarray, quad: np.ndarray, n: int, dtype=np.int64):
+        self.a, self.b = _cell_edges(tri, quad, dtype)
+        self.order, self.ks = _stable_order(_edge_keys(self.a, self.b, n))
+        self.same = self.ks[1:] == self.ks[:-1]
+        self.a_s = self.a[self.order]
+        self.dup = self.same & (self.a_s[1:] == self.a_s[:-1])
+
+
+def _by_loc(loc: np.ndarray, width: int, value: np.ndarray):
+    """Rows with a free owner (``loc >= 0``) sorted by (loc, value); returns (loc, value) of the sorted rows.
+
+    ``value`` (0 <= value < width) orders the rows of one owner.  Both are
+    packed into one int64 key for a plain ``np.sort``; rows of fixed owners
+    (loc = -1) get negative keys, sort first and are cut off.  Falls back to
+    ``np.lexsort`` when the key would not fit in 63 bits.  ``loc`` may be
+    overwritten (when it is int64).  Returns int64 arrays.
+    """
+    shift = max(int(width - 1).bit_length(), 1)
+    if loc.shape[0] == 0 or int(loc.max()).bit_length() + shift <= 63:
+        key = loc if loc.dtype == np.int64 else loc.astype(np.int64)
+        key <<= shift
+        key |= value
+        key.sort()
+        key = key[np.searchsorted(key, 0) :]
+        loc = key >> shift
+        key &= (1 << shift) - 1
+        return loc, key
+    keep = loc >= 0
+    loc, value = loc[keep], value[keep]
+    o = np.lexsort((value, loc))
+    return loc[o].astype(np.int64), value[o].astype(np.int64)
