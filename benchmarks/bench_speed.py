@@ -58,7 +58,7 @@ from pathlib import Path
 import numpy as np
 
 SIZES = {"10k": ("tri", 10_000), "100k": ("tri", 100_000), "1M": ("tri", 1_000_000), "quad250k": ("quad", 250_000)}
-EXTRA_SIZES = {"quad1M": ("quad", 1_000_000), "200k": ("tri", 200_000)}  # only when asked for: --sizes quad1M
+EXTRA_SIZES = {"quad100k": ("quad", 100_000), "quad1M": ("quad", 1_000_000), "200k": ("tri", 200_000)}  # only when asked for: --sizes quad1M
 TINY = {"tiny": ("tri", 2_000), "tinyquad": ("quad", 1_000)}
 SRC = Path(__file__).resolve().parents[1] / "src"
 
@@ -158,6 +158,7 @@ def _stop(procs: list) -> None:
 def worker_method(npz: str, method: str, guard: bool, repeat: int, threads: int = 0, load: int = 0) -> dict:
     from anglesmooth.mesh import Mesh2D
     from anglesmooth.smoothers import SMOOTHERS, _fast
+    from anglesmooth.smoothers._floors import input_floors
     from anglesmooth.topology import build_topology
 
     if threads:
@@ -176,6 +177,8 @@ def worker_method(npz: str, method: str, guard: bool, repeat: int, threads: int 
         kernel, jit = "numba", time.perf_counter() - t0
     step = SMOOTHERS[method].step
     pts = np.array(mesh.points)
+    # a guarded pass gets the input floors, as the driver (and so the CLI) gives them, computed once per run
+    opts = {"floors": input_floors(pts, topo)} if guard else {}
     times = []
     loaders = _busy_loops(load)
     try:
@@ -183,7 +186,7 @@ def worker_method(npz: str, method: str, guard: bool, repeat: int, threads: int 
         cpu = []
         for _ in range(repeat):
             t0, c0 = time.perf_counter(), time.process_time()
-            pts = step(pts, topo, guard=guard).points
+            pts = step(pts, topo, guard=guard, **opts).points
             times.append(time.perf_counter() - t0)
             cpu.append(time.process_time() - c0)
     finally:
@@ -196,6 +199,150 @@ def worker_method(npz: str, method: str, guard: bool, repeat: int, threads: int 
     if method == "laplacian" and guard is False:
         out["bincount_pass_s"] = _bincount_pass(mesh.points, topo, repeat)
     return out
+
+
+#: the stages of a default ``angle`` pass that :func:`worker_breakdown` times (``choose (fused)``: the
+#: compiled kernel that does stages 1-3 at once, so its parts cannot be told apart from outside)
+BREAKDOWN = ("angle target", "geometry", "scoring", "stage 2", "stuck", "choose (fused)", "optimization",
+             "block loop")
+
+
+class _Timeline:
+    """Time between labelled events: every :meth:`switch` charges the time since the last one to the
+    label that was current, so the stages of a pass add up to the whole pass."""
+
+    def __init__(self):
+        self.acc = dict.fromkeys(BREAKDOWN, 0.0)
+        self.label = "block loop"
+        self.t = time.perf_counter()
+
+    def switch(self, label: str) -> str:
+        now = time.perf_counter()
+        self.acc[self.label] += now - self.t
+        self.t, old, self.label = now, self.label, label
+        return old
+
+    def wrap(self, fn, label: str, after: str | None = None):
+        """``fn`` with its calls charged to ``label`` (then to ``after``, default: the label before)."""
+
+        def timed(*args, **kwargs):
+            old = self.switch(label)
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                self.switch(after or old)
+
+        return timed
+
+
+def worker_breakdown(npz: str, repeat: int) -> dict:
+    """Literal and default ``angle`` passes, and where the default pass's time goes, in one process.
+
+    The functions ``angle.step`` calls are wrapped (in its module namespace) so that each stage's
+    time is charged to it: ``angle target`` (the angle positions), ``geometry`` (gathering the fixed
+    vertices of every incident cell of the block), ``scoring`` (the local score of the angle
+    positions and the stage-1 acceptance), ``stage 2`` (the Laplacian position and the best of five
+    for the nodes that were not accepted), ``stuck`` (stage 3), ``optimization`` (choosing the worst
+    nodes and their compass search), ``choose (fused)`` (the compiled kernel doing stages 1-3 in one
+    loop) and ``block loop`` (copying the points, gathering each block's current positions and
+    scattering the new ones).  The wrappers cost a few microseconds per block.
+    """
+    from anglesmooth.mesh import Mesh2D
+    from anglesmooth.smoothers import _fast
+    from anglesmooth.smoothers import angle as angle_mod
+    from anglesmooth.smoothers._floors import input_floors
+    from anglesmooth.topology import build_topology
+
+    d = np.load(npz)
+    mesh = Mesh2D.from_arrays(d["points"], triangles=d["triangles"], quads=d["quads"])
+    topo = build_topology(mesh)
+    topo.blocks()
+    kernel = "numba" if _fast.active(topo) else "numpy"
+    if kernel == "numba":
+        _fast.warm_up()
+    pts0 = np.array(mesh.points)
+    floors = input_floors(pts0, topo)
+
+    def passes(**kw):
+        pts, times = pts0.copy(), []
+        step(pts, topo, **kw)  # first pass: per-block layouts cached, not timed
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            pts = step(pts, topo, **kw).points
+            times.append(time.perf_counter() - t0)
+        return times
+
+    step = angle_mod.step
+    literal = passes(guard=False)
+    default = passes(floors=floors)
+    # the same default passes again, with every stage timed
+    tl = _Timeline()
+    saved = {k: getattr(angle_mod, k) for k in ("angle_target", "geometry", "laplacian_target", "first_valid",
+                                                   "local_scale", "optimize", "_per_node", "run_blocks", "np")}
+    saved_choose = _fast.angle_choose
+    calls = {"per_node": 0}
+
+    def per_node(*args):
+        calls["per_node"] += 1  # first call: stage 1's acceptance threshold; second: the optimization's
+        tl.switch("scoring" if calls["per_node"] % 2 else "optimization")
+        return saved["_per_node"](*args)
+
+    class _NumpyProxy:  # angle.np with argpartition (the choice of the worst nodes) charged to optimization
+        def __getattr__(self, name):
+            return getattr(np, name)
+
+        @staticmethod
+        def argpartition(*args, **kwargs):
+            tl.switch("optimization")
+            return np.argpartition(*args, **kwargs)
+
+    def run_blocks(points, topo_, order, update):
+        def timed_update(*args):
+            calls["per_node"] = 0
+            tl.switch("scoring")
+            try:
+                return update(*args)
+            finally:
+                tl.switch("block loop")
+
+        return saved["run_blocks"](points, topo_, order, timed_update)
+
+    patched = {
+        "angle_target": tl.wrap(saved["angle_target"], "angle target"),
+        "geometry": tl.wrap(saved["geometry"], "geometry"),
+        "laplacian_target": tl.wrap(saved["laplacian_target"], "stage 2", "stage 2"),
+        "first_valid": tl.wrap(saved["first_valid"], "stuck", "stuck"),
+        "local_scale": tl.wrap(saved["local_scale"], "optimization"),
+        "optimize": tl.wrap(saved["optimize"], "optimization"),
+        "_per_node": per_node,
+        "run_blocks": run_blocks,
+        "np": _NumpyProxy(),
+    }
+    try:
+        for k, v in patched.items():
+            setattr(angle_mod, k, v)
+        _fast.angle_choose = tl.wrap(saved_choose, "choose (fused)")
+        staged = []
+        pts = pts0.copy()
+        step(pts, topo, floors=floors)
+        per_pass = []
+        for _ in range(repeat):
+            tl.switch("block loop")
+            before = dict(tl.acc)
+            t0 = time.perf_counter()
+            pts = step(pts, topo, floors=floors).points
+            tl.switch("block loop")
+            staged.append(time.perf_counter() - t0)
+            per_pass.append({k: tl.acc[k] - before[k] for k in BREAKDOWN})
+    finally:
+        for k, v in saved.items():
+            setattr(angle_mod, k, v)
+        _fast.angle_choose = saved_choose
+    stages = {k: statistics.median(p[k] for p in per_pass) for k in BREAKDOWN}
+    lit, dflt = statistics.median(literal), statistics.median(default)
+    return {"kernel": kernel, "literal_s": lit, "default_s": dflt, "ratio": dflt / lit, "staged_s":
+            statistics.median(staged), "stages_s": stages, "floors_active": bool(floors.active),
+            "peak_rss_mb": _peak_rss_mb()}
 
 
 def _bincount_pass(points: np.ndarray, topo, repeat: int) -> float:
@@ -333,10 +480,11 @@ def run_cli(args: list[str], repeat: int = 1, cache: str | None = None) -> dict:
 # --------------------------------------------------------------------------- driver
 
 
-def cases() -> list[tuple[str, bool]]:
+def cases(methods: tuple[str, ...] | None = None) -> list[tuple[str, bool]]:
     from anglesmooth.smoothers import SMOOTHERS
 
-    return [(m, True) for m in SMOOTHERS] + [("angle", False), ("laplacian", False)]
+    out = [(m, True) for m in SMOOTHERS] + [("angle", False), ("laplacian", False)]
+    return [c for c in out if methods is None or c[0] in methods]
 
 
 def run_cold(name: str, kind: str, n_cells: int, tmp: Path, cli: bool) -> list[dict]:
@@ -370,14 +518,15 @@ def run_cold(name: str, kind: str, n_cells: int, tmp: Path, cli: bool) -> list[d
 
 
 def run(sizes: dict, repeat: int, cli: bool, tmp: Path, slow_repeat: int | None = None,
-        kernels: tuple[str, ...] = ("auto",), e2e_repeat: int = 3, load: int = 0) -> list[dict]:
+        kernels: tuple[str, ...] = ("auto",), e2e_repeat: int = 3, load: int = 0,
+        methods: tuple[str, ...] | None = None, breakdown: bool = True) -> list[dict]:
     rows = []
     for name, (kind, n_cells) in sizes.items():
         info = write_inputs(name, kind, n_cells, tmp)
         print(f"# {name}: {info['n_cells']} cells, {info['n_points']} nodes", file=sys.stderr, flush=True)
         for kernel in kernels:
             results = {}
-            for method, guard in cases():
+            for method, guard in cases(methods):
                 rep = repeat
                 if method == "optimization" and slow_repeat is not None:
                     rep = slow_repeat
@@ -395,8 +544,9 @@ def run(sizes: dict, repeat: int, cli: bool, tmp: Path, slow_repeat: int | None 
             if load and kernel in ("auto", "numpy"):
                 r = _run_worker(["method", info["npz"], "angle", "1", str(repeat), "0", str(load)], "numpy")
                 results[("angle", True, "load", "numpy")] = r
-            lap = results[("laplacian", True)].get("pass_s")
-            floor = results[("laplacian", False)].get("bincount_pass_s")
+            lap = results.get(("laplacian", True), {}).get("pass_s")
+            floor = results.get(("laplacian", False), {}).get("bincount_pass_s")
+            literal = results.get(("angle", False), {}).get("pass_s")
             for (method, guard, *loaded), r in results.items():
                 row = {"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"],
                        "method": f"{method} (loaded)" if loaded else method, "guard": guard}
@@ -405,7 +555,15 @@ def run(sizes: dict, repeat: int, cli: bool, tmp: Path, slow_repeat: int | None 
                     row["ratio_to_laplacian"] = r["pass_s"] / lap
                 if floor and "pass_s" in r:
                     row["ratio_to_bincount"] = r["pass_s"] / floor
+                if literal and "pass_s" in r:
+                    row["ratio_to_literal"] = r["pass_s"] / literal
                 rows.append(row)
+            if breakdown:
+                r = _run_worker(["breakdown", info["npz"], str(repeat)], kernel)
+                rows.append({"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"], "kind": kind,
+                             "method": "breakdown", "guard": True, **r})
+                print(f"#   {kernel:5s} breakdown: default/literal {r.get('ratio', float('nan')):.2f}",
+                      file=sys.stderr, flush=True)
         for enc, msh in info["msh"].items() if cli else ():
             common = {"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"], "msh": enc}
             meshio_runs = [_run_worker(["meshio", msh, str(tmp / f"{name}_meshio.vtu")]) for _ in range(e2e_repeat)]
@@ -439,7 +597,8 @@ def _fmt(v, spec):
 def table(rows: list[dict]) -> str:
     head = (f"{'mesh':>9} {'cells':>9} {'method':<22} {'guard':<5} {'kernel':<6} {'thr':>3} {'load':>4} "
             f"{'setup s':>8} {'jit s':>6} "
-            f"{'s/pass':>8} {'cpu s':>6} {'x lap':>6} {'x bincnt':>8} {'e2e s':>7} {'x meshio':>8} {'RSS MB':>7}")
+            f"{'s/pass':>8} {'cpu s':>6} {'x lap':>6} {'x lit':>6} {'x bincnt':>8} {'e2e s':>7} {'x meshio':>8} "
+            f"{'RSS MB':>7}")
     lines = [head, "-" * len(head)]
     for r in rows:
         guard = "" if r.get("guard") is None else ("on" if r["guard"] else "off")
@@ -451,7 +610,7 @@ def table(rows: list[dict]) -> str:
             f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<22} {guard:<5} {kernel:<6} {_fmt(r.get('threads'), '3d')} "
             f"{_fmt(r.get('load'), '4d')} {_fmt(r.get('setup_s'), '8.2f')} "
             f"{_fmt(r.get('jit_s'), '6.2f')} {_fmt(r.get('pass_s'), '8.3f')} {_fmt(r.get('pass_cpu_s'), '6.3f')} "
-            f"{_fmt(r.get('ratio_to_laplacian'), '6.2f')} "
+            f"{_fmt(r.get('ratio_to_laplacian'), '6.2f')} {_fmt(r.get('ratio_to_literal'), '6.2f')} "
             f"{_fmt(r.get('ratio_to_bincount'), '8.1f')} {_fmt(r.get('e2e_s'), '7.2f')} "
             f"{_fmt(r.get('ratio_to_meshio'), '8.2f')} {_fmt(r.get('peak_rss_mb'), '7.0f')}"
         )
@@ -475,6 +634,33 @@ def stage_table(rows: list[dict]) -> str:
         vals = " ".join(_fmt(r.get(f"{c}_s"), "8.3f") for c in cols)
         lines.append(f"{r['mesh']:>9} {r.get('kernel', ''):<6} {vals} {_fmt(meshio.get(r['mesh']), '8.3f')} "
                      f"{_fmt(r.get('peak_rss_mb'), '7.0f')}")
+    return "\n".join(lines)
+
+
+def breakdown_table(rows: list[dict]) -> str:
+    """Default ``angle`` pass / literal pass (``guard=False``) per mesh and kernel, and where the default's time goes."""
+    short = {"angle target": "target", "geometry": "geom", "scoring": "score", "stage 2": "stage2", "stuck": "stuck",
+             "choose (fused)": "fused", "optimization": "optim", "block loop": "loop"}
+    head = (f"{'mesh':>9} {'cells':>9} {'kernel':<6} {'literal s':>9} {'default s':>9} {'x lit':>6} | "
+            + " ".join(f"{short[k]:>7}" for k in BREAKDOWN) + " (ms; % of the staged pass)")
+    lines = ["default angle pass (input floors as the driver gives them) / literal pass (guard=False), medians of one",
+             "run; then where a default pass goes: target = angle positions, geom = gathering the blocks' cells,",
+             "score = score of the angle positions + stage-1 acceptance, stage2 = Laplacian + best of five, stuck =",
+             "stage 3, fused = the compiled stages 1-3 (angle_choose), optim = worst-node choice + compass search,",
+             "loop = block loop (copy, gather, scatter)", head, "-" * len(head)]
+    for r in rows:
+        if r["method"] != "breakdown":
+            continue
+        if "error" in r:
+            lines.append(f"{r['mesh']:>9} {r['cells']:>9} error: {r['error']}")
+            continue
+        st = r["stages_s"]
+        tot = sum(st.values()) or 1.0
+        parts = " ".join(f"{1e3 * st[k]:7.1f}" if st[k] else f"{'-':>7}" for k in BREAKDOWN)
+        pct = " ".join(f"{100 * st[k] / tot:6.0f}%" if st[k] else f"{'':>7}" for k in BREAKDOWN)
+        lines.append(f"{r['mesh']:>9} {r['cells']:>9} {r.get('kernel', ''):<6} {_fmt(r.get('literal_s'), '9.3f')} "
+                     f"{_fmt(r.get('default_s'), '9.3f')} {_fmt(r.get('ratio'), '6.2f')} | {parts}")
+        lines.append(f"{'':>9} {'':>9} {'':<6} {'':>9} {'':>9} {'':>6} | {pct}")
     return "\n".join(lines)
 
 
@@ -519,6 +705,8 @@ def main(argv: list[str] | None = None) -> int:
             out = _write_inputs(name, mesh_kind, int(n_cells), Path(tmp))
         elif kind == "stages":
             out = worker_stages(*rest)
+        elif kind == "breakdown":
+            out = worker_breakdown(rest[0], int(rest[1]))
         else:
             out = worker_meshio(*rest)
         print(json.dumps(out))
@@ -538,8 +726,18 @@ def main(argv: list[str] | None = None) -> int:
                     help="busy-loop processes competing with the loaded cases (default: one per core; 0: none)")
     ap.add_argument("--cold-size", default="200k", metavar="SIZE",
                     help="mesh of the cold / warm first-run cases (a size name, or 'none')")
+    ap.add_argument("--methods", default=None, metavar="M,...",
+                    help="only these methods (e.g. 'angle': its default and literal pass); default: all")
+    ap.add_argument("--no-breakdown", action="store_true",
+                    help="skip the default/literal ratio and per-stage breakdown of the default angle pass")
+    ap.add_argument("--src", metavar="DIR", default=None,
+                    help="run the workers with the package in DIR (e.g. another checkout's src/: a before/after "
+                         "comparison with the same harness); default: this checkout's src/")
     ap.add_argument("--json", metavar="PATH", help="also write the rows as JSON")
     args = ap.parse_args(argv)
+    global SRC
+    if args.src:
+        SRC = Path(args.src).resolve()
     load = (os.cpu_count() or 1) if args.load is None else args.load
     cold = None if args.cold_size == "none" else args.cold_size
     if args.tiny:
@@ -553,14 +751,19 @@ def main(argv: list[str] | None = None) -> int:
         sizes, repeat = {s: known[s] for s in args.sizes.split(",")}, args.repeat
     cli = not args.no_cli and _cli_available()
     t0 = time.perf_counter()
+    la0 = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="anglesmooth-bench-") as tmp:
+        methods = tuple(args.methods.split(",")) if args.methods else None
         rows = run(sizes, repeat, cli, Path(tmp), args.slow_repeat, tuple(args.kernels.split(",")),
-                   args.e2e_repeat, load)
+                   args.e2e_repeat, load, methods, not args.no_breakdown)
         if cold:
             kind, n_cells = {**SIZES, **EXTRA_SIZES, **TINY}[cold]
             print(f"# cold / warm first run: {cold}", file=sys.stderr, flush=True)
             rows += run_cold(cold, kind, n_cells, Path(tmp), cli)
-    print(table([r for r in rows if r["method"] != "stages" and "state" not in r]))
+    print(table([r for r in rows if r["method"] not in ("stages", "breakdown") and "state" not in r]))
+    if any(r["method"] == "breakdown" for r in rows):
+        print()
+        print(breakdown_table(rows))
     if any(r["method"] == "stages" for r in rows):
         print()
         print(stage_table(rows))
@@ -577,7 +780,13 @@ def main(argv: list[str] | None = None) -> int:
         "e2e_repeat": args.e2e_repeat,
         "wall_s": time.perf_counter() - t0,
         "command": " ".join([Path(sys.executable).name, *sys.argv]),
+        "src": str(SRC),
+        "loadavg_start": la0,
+        "loadavg_end": os.getloadavg(),
     }
+    print(f"\nmachine: {os.cpu_count()} cpus, load average (1, 5, 15 min) at start "
+          f"{', '.join(f'{v:.2f}' for v in la0)}, at end {', '.join(f'{v:.2f}' for v in meta['loadavg_end'])}; "
+          f"package from {SRC}")
     if args.json:
         Path(args.json).write_text(json.dumps({"meta": meta, "rows": rows}, indent=2))
     return 0

@@ -47,6 +47,21 @@ def test_bench_speed_tiny(tmp_path):
         assert r["compile_s"] >= 0 and r["peak_rss_mb"] > 0
     assert "cold = empty kernel cache directory" in res.stdout
     rows = [r for r in rows if "state" not in r]
+    # the default angle pass against the literal one, and its stages, for each mesh and kernel (issue 12)
+    breakdown = {(r["mesh"], r["kernel"]): r for r in rows if r["method"] == "breakdown"}
+    assert set(breakdown) == {(m, k) for m in ("tiny", "tinyquad") for k in ("numpy", "numba")}
+    for r in breakdown.values():
+        assert "error" not in r, r
+        assert r["ratio"] > 0 and abs(r["ratio"] - r["default_s"] / r["literal_s"]) < 1e-9
+        stages = r["stages_s"]
+        assert all(v >= 0 for v in stages.values()) and sum(stages.values()) > 0
+        assert sum(stages.values()) <= 1.5 * r["staged_s"] + 1e-3  # the stages add up to about the pass
+        fused = stages["choose (fused)"] > 0
+        assert fused == (r["kernel"] == "numba") and (stages["angle target"] > 0) == (not fused)
+    assert "default angle pass (input floors as the driver gives them) / literal pass" in res.stdout
+    assert "x lit" in res.stdout.splitlines()[0]
+    assert any(r.get("ratio_to_literal") == 1.0 for r in rows if r["method"] == "angle" and r["guard"] is False)
+    rows = [r for r in rows if r["method"] != "breakdown"]
     timed = [r for r in rows if "kernel" in r and r["method"] != "stages"]
     for r in timed:
         assert "error" not in r, r

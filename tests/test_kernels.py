@@ -117,6 +117,42 @@ def test_jacobi_order_same_result_with_either_kernel(method, monkeypatch):
     np.testing.assert_array_equal(a, b)
 
 
+@pytest.mark.parametrize("name", ["triangles", "mixed"])
+def test_numpy_speedups_give_the_same_numbers(name, monkeypatch):
+    """The numpy kernels' shortcuts against their plain forms: the area band fused into the score
+    against ``area_range`` + ``score``, and a block subset's ragged layout (``_SMALL_SUBSET``) against
+    the per-count chunks; tangled candidates, so invalid and inverted cells count too."""
+    from anglesmooth.smoothers import _local
+
+    monkeypatch.setenv("ANGLESMOOTH_KERNEL", "numpy")
+    mesh = tangled(MESHES[name](), seed=3)
+    topo = build_topology(mesh)
+    rng = np.random.default_rng(4)
+    pts = mesh.points
+    checked_out = 0
+    for blk in topo.blocks():
+        if blk.size < 3:
+            continue
+        cur = pts[topo.free_nodes[blk.nodes]]
+        X = cur[None] + rng.normal(scale=0.03 * np.ptp(pts), size=(8, blk.size, 2))
+        geom = BlockGeometry(pts, topo, blk)
+        lo0, hi0 = geom.area_range(cur)
+        lo0, hi0 = 0.8 * lo0, hi0 / 0.8
+        lo, hi = geom.area_range(X)
+        plain = np.where((lo >= lo0) & (hi <= hi0), geom.score(X), -np.inf)
+        np.testing.assert_array_equal(geom.banded_score(X, lo0, hi0), plain)
+        checked_out += int(np.isinf(plain).sum())
+        sub = np.arange(1, blk.size, 3)
+        ragged = geom.restrict(sub).score(X[:, sub])
+        monkeypatch.setattr(_local, "_SMALL_SUBSET", 0)  # every subset in per-count chunks
+        grouped = geom.restrict(sub)
+        monkeypatch.undo()
+        monkeypatch.setenv("ANGLESMOOTH_KERNEL", "numpy")
+        assert len(grouped._t.chunks) + len(grouped._q.chunks) >= 1
+        np.testing.assert_array_equal(grouped.score(X[:, sub]), ragged)
+    assert checked_out > 0  # some candidates left the band
+
+
 @pytest.mark.parametrize("name", ["triangles", "quads", "mixed"])
 def test_kernels_agree_on_random_candidates_valid_invalid_and_degenerate(name, monkeypatch):
     monkeypatch.setenv("ANGLESMOOTH_KERNEL", "numpy")

@@ -7,6 +7,13 @@ given (``prange``, compiled serially): a node reads the shared points and
 writes only its own outputs, so :func:`._fast._run` runs them on several
 threads by splitting the nodes (numba's own parallel layer costs five times
 the compile time and oversubscribes busy machines; see ``_fast``).
+
+A node with several candidates (the best of five, the keep test, the compass
+search) gathers its incident cells once into a small scratch (``_node_rows``)
+and scores each candidate from it (``_node_score_rows``), starting with the cell
+that decided the previous candidate and stopping as soon as the candidate cannot
+beat the best so far: the same answers (a minimum and an integer count do not
+depend on the order of the cells), fewer operations.
 """
 
 from __future__ import annotations
@@ -100,24 +107,167 @@ def _node_score(pts, px, py, f, tp, tv, qp, qv, fl):
     return INVALID - bad if bad > 0 else best
 
 
+#: columns of the per-node row scratch of :func:`_node_rows` (one row per incident cell)
+_ROW_COLS = 12
+
+
 @njit(inline="always")
-def _node_area_range(pts, px, py, f, tp, tv, qp, qv):
-    """``BlockGeometry.area_range`` for one node: ``_tri_area`` / ``_quad_area``."""
-    lo = np.inf
-    hi = -np.inf
+def _max_rows(nodes, tp, qp):
+    """The most incident cells of any of ``nodes``: the rows of the scratch :func:`_node_rows` fills."""
+    m = 0
+    for i in range(nodes.shape[0]):
+        f = nodes[i]
+        m = max(m, tp[f + 1] - tp[f] + qp[f + 1] - qp[f])
+    return m
+
+
+@njit(inline="always")
+def _node_rows(pts, f, tp, tv, qp, qv, buf):
+    """The part of ``_node_score`` that does not depend on the moving node, once per node, into ``buf``.
+
+    Triangle rows first (x1, y1, x2, y2, ux, uy, l12), then quad rows (x1, y1, x3, y3, ux, uy, vx, vy,
+    l12, l23, |cos2| or 1, corner 2 valid): the same operations as ``_node_score``, so
+    :func:`_node_score_rows` gives the same numbers while a node's candidates skip the gathers and the
+    fixed edges' square roots and divisions.
+    """
+    k = 0
     for r in range(tp[f], tp[f + 1]):
         i1, i2 = tv[r, 1], tv[r, 2]
-        ex1, ey1 = pts[i1, 0] - px, pts[i1, 1] - py
-        ex2, ey2 = pts[i2, 0] - px, pts[i2, 1] - py
+        x1, y1, x2, y2 = pts[i1, 0], pts[i1, 1], pts[i2, 0], pts[i2, 1]
+        ux, uy = x2 - x1, y2 - y1
+        buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3] = x1, y1, x2, y2
+        buf[k, 4], buf[k, 5], buf[k, 6] = ux, uy, math.sqrt(ux * ux + uy * uy)
+        k += 1
+    for r in range(qp[f], qp[f + 1]):
+        i1, i2, i3 = qv[r, 1], qv[r, 2], qv[r, 3]
+        x1, y1, x2, y2, x3, y3 = pts[i1, 0], pts[i1, 1], pts[i2, 0], pts[i2, 1], pts[i3, 0], pts[i3, 1]
+        ux, uy = x2 - x1, y2 - y1
+        vx, vy = x3 - x2, y3 - y2
+        l12 = math.sqrt(ux * ux + uy * uy)
+        l23 = math.sqrt(vx * vx + vy * vy)
+        c2 = vx * -uy - vy * -ux
+        cos2 = (vx * -ux + vy * -uy) / (l23 * l12)
+        ok2 = (c2 > 0) & (abs(cos2) < np.inf)
+        buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3] = x1, y1, x3, y3
+        buf[k, 4], buf[k, 5], buf[k, 6], buf[k, 7] = ux, uy, vx, vy
+        buf[k, 8], buf[k, 9] = l12, l23
+        buf[k, 10] = abs(cos2) if ok2 else 1.0
+        buf[k, 11] = 1.0 if ok2 else 0.0
+        k += 1
+    buf[buf.shape[0] - 1, 0] = 0.0  # the cell to start the next score with (see _node_score_rows)
+
+
+@njit(inline="always")
+def _node_score_rows(px, py, f, tp, qp, buf, fl, cut):
+    """:func:`_node_score` from the rows :func:`_node_rows` put in ``buf`` for node ``f`` (same numbers).
+
+    ``cut``: the caller needs the score only where it is above ``cut``; where it is not, ``-inf`` may
+    come back as soon as that is certain (a valid cell with a score <= ``cut``, or, when ``cut`` is
+    at least the best invalid score ``INVALID - 1``, an invalid cell), skipping the node's other
+    cells.  ``-inf`` scores every cell.  Every score above ``cut`` is exact, so a caller that only
+    asks "is this candidate better than ``cut``?" gets the same answers.
+
+    The cells are visited starting with the one that decided the previous call for this node (its
+    worst cell, or the one that cut it off; kept in ``buf``'s last row): a minimum and a count of
+    invalid cells do not depend on the order, and a nearby candidate is most often cut off by the
+    same cell, so most candidates that cannot win stop after one cell.
+    """
+    best = np.inf
+    bad = 0.0
+    floors = fl.shape[0] > 0
+    cut_invalid = cut >= INVALID - 1.0
+    t0, nt = tp[f], tp[f + 1] - tp[f]
+    q0 = qp[f]
+    m = nt + qp[f + 1] - q0
+    hint = buf.shape[0] - 1
+    k = int(buf[hint, 0])
+    if k >= m:
+        k = 0
+    worst = k
+    worst_bad = -1
+    for _ in range(m):
+        if k < nt:
+            x1, y1, x2, y2 = buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3]
+            ux, uy, l12 = buf[k, 4], buf[k, 5], buf[k, 6]
+            ex1, ey1 = x1 - px, y1 - py
+            fx2, fy2 = px - x2, py - y2
+            l1 = math.sqrt(ex1 * ex1 + ey1 * ey1)
+            l2 = math.sqrt(fx2 * fx2 + fy2 * fy2)
+            v0 = (ex1 * fx2 + ey1 * fy2) / (l1 * l2)
+            v1 = (ux * ex1 + uy * ey1) / (l12 * l1)
+            v2 = (fx2 * ux + fy2 * uy) / (l2 * l12)
+            v = min(v0, v1, v2)
+            cr = ex1 * fy2 - ey1 * fx2
+            okf = True
+            if floors:
+                r = t0 + k
+                okf = (-cr >= fl[0, r]) & (l1 >= fl[1, r]) & (l2 >= fl[2, r])
+            valid = (cr < 0) & okf & (v0 == v0) & (v1 == v1) & (v2 == v2) & (abs(v) < np.inf)
+            if not valid:
+                ex2, ey2 = x2 - px, y2 - py
+                w = 1.0 if 0.5 * (ex1 * ey2 - ey1 * ex2) > 0 else INVERTED_WEIGHT
+        else:
+            x1, y1, x3, y3 = buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3]
+            ux, uy, vx, vy = buf[k, 4], buf[k, 5], buf[k, 6], buf[k, 7]
+            l12, l23, qc2, ok2 = buf[k, 8], buf[k, 9], buf[k, 10], buf[k, 11] > 0
+            ex1, ey1 = x1 - px, y1 - py
+            ex3, ey3 = x3 - px, y3 - py
+            l1 = math.sqrt(ex1 * ex1 + ey1 * ey1)
+            l3 = math.sqrt(ex3 * ex3 + ey3 * ey3)
+            a0 = abs((ex1 * ex3 + ey1 * ey3) / (l1 * l3))
+            a1 = abs((ux * ex1 + uy * ey1) / (l12 * l1))
+            a3 = abs((ex3 * vx + ey3 * vy) / (l3 * l23))
+            cm = max(a0, a1, a3, qc2)
+            ok = (ex1 * ey3 - ey1 * ex3 > 0) & (uy * ex1 - ux * ey1 > 0) & (ex3 * vy - ey3 * vx > 0) & ok2
+            if floors:
+                r = q0 + k - nt
+                a2 = (x1 + ux - px) * (y3 - y1) - (y1 + uy - py) * (x3 - x1)
+                ok = ok & (a2 >= fl[3, r]) & (l1 >= fl[4, r]) & (l3 >= fl[5, r])
+            valid = ok & (a0 < np.inf) & (a1 < np.inf) & (a3 < np.inf)
+            v = -cm
+            if not valid:
+                dx, dy = x1 + ux - px, y1 + uy - py
+                fx, fy = x3 - x1, y3 - y1
+                w = 1.0 if 0.5 * (dx * fy - dy * fx) > 0 else INVERTED_WEIGHT
+        if valid:
+            if v < best:
+                best = v
+                worst = k
+            if best <= cut:  # the score is at most best (an invalid cell only lowers it further)
+                buf[hint, 0] = k
+                return -np.inf
+        else:
+            if cut_invalid:
+                buf[hint, 0] = k
+                return -np.inf
+            bad += w
+            if worst_bad < 0:
+                worst_bad = k
+        k += 1
+        if k == m:
+            k = 0
+    buf[hint, 0] = worst_bad if bad > 0 else worst
+    return INVALID - bad if bad > 0 else best
+
+
+@njit(inline="always")
+def _node_area_range_rows(px, py, f, tp, qp, buf):
+    """``BlockGeometry.area_range`` for one node: ``_tri_area`` / ``_quad_area``, from the rows of
+    :func:`_node_rows`."""
+    lo = np.inf
+    hi = -np.inf
+    nt = tp[f + 1] - tp[f]
+    for k in range(nt):
+        ex1, ey1 = buf[k, 0] - px, buf[k, 1] - py
+        ex2, ey2 = buf[k, 2] - px, buf[k, 3] - py
         a = 0.5 * (ex1 * ey2 - ey1 * ex2)
         lo = min(lo, a)
         hi = max(hi, a)
-    for r in range(qp[f], qp[f + 1]):
-        i1, i2, i3 = qv[r, 1], qv[r, 2], qv[r, 3]
-        x1, y1 = pts[i1, 0], pts[i1, 1]
-        ux, uy = pts[i2, 0] - x1, pts[i2, 1] - y1
+    for k in range(nt, nt + qp[f + 1] - qp[f]):
+        x1, y1 = buf[k, 0], buf[k, 1]
+        ux, uy = buf[k, 4], buf[k, 5]
         dx, dy = x1 + ux - px, y1 + uy - py
-        fx, fy = pts[i3, 0] - x1, pts[i3, 1] - y1
+        fx, fy = buf[k, 2] - x1, buf[k, 3] - y1
         a = 0.5 * (dx * fy - dy * fx)
         lo = min(lo, a)
         hi = max(hi, a)
@@ -128,10 +278,12 @@ def _node_area_range(pts, px, py, f, tp, tv, qp, qv):
 def score(pts, X, nodes, tp, tv, qp, qv, fl):
     K, n = X.shape[0], X.shape[1]
     out = np.empty((K, n))
+    buf = np.empty((_max_rows(nodes, tp, qp) + 1, _ROW_COLS))
     for i in prange(n):
         f = nodes[i]
+        _node_rows(pts, f, tp, tv, qp, qv, buf)
         for k in range(K):
-            out[k, i] = _node_score(pts, X[k, i, 0], X[k, i, 1], f, tp, tv, qp, qv, fl)
+            out[k, i] = _node_score_rows(X[k, i, 0], X[k, i, 1], f, tp, qp, buf, fl, -np.inf)
     return out
 
 
@@ -225,6 +377,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
     new = np.empty((n, 2))
     best = np.empty(n)
     refused = np.zeros(n, np.bool_)
+    buf = np.empty((_max_rows(nodes, tp, qp) + 1, _ROW_COLS))  # the node's fixed cell data (speed only)
     for i in prange(n):
         f = nodes[i]
         ax, ay = _node_angle(pts, f, free, sp, ring, sa, sb, frac)
@@ -232,8 +385,10 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
         refused[i] = s_a <= INVALID + 0.5
         cx, cy = pts[free[f], 0], pts[free[f], 1]
         take = s_a >= good[i]
+        if not take or (keep.shape[0] > 0 and keep[i]):  # more candidates to score: gather the cells once
+            _node_rows(pts, f, tp, tv, qp, qv, buf)
         if take and keep.shape[0] > 0 and keep[i]:
-            take = s_a >= _node_score(pts, cx, cy, f, tp, tv, qp, qv, fl)
+            take = s_a >= _node_score_rows(cx, cy, f, tp, qp, buf, fl, s_a)
         if take:
             new[i, 0], new[i, 1], best[i] = ax, ay, s_a
             continue
@@ -253,7 +408,8 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
                 px, py = 0.5 * (ax + cx), 0.5 * (ay + cy)
             else:
                 px, py = cx, cy
-            sk = _node_score(pts, px, py, f, tp, tv, qp, qv, fl)
+            # exact where it beats bs or, with near_ok, where it is good enough (a cut below good[i])
+            sk = _node_score_rows(px, py, f, tp, qp, buf, fl, min(bs, good[i] - 1e-9) if near_ok else bs)
             if k < 3:
                 stuck = stuck & (sk <= INVALID + 0.5)
             elif stuck:
@@ -272,7 +428,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
             fr = 1.0
             for _ in range(7):
                 px, py = cx + fr * dx, cy + fr * dy
-                sk = _node_score(pts, px, py, f, tp, tv, qp, qv, fl)
+                sk = _node_score_rows(px, py, f, tp, qp, buf, fl, INVALID + 0.5)  # exact where valid
                 if sk > INVALID + 0.5:
                     bx, by, bs = px, py, sk
                     break
@@ -288,13 +444,15 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
     n = nodes.shape[0]
     out = np.empty((n, 2))
     s_out = np.empty(n)
+    buf = np.empty((_max_rows(nodes, tp, qp) + 1, _ROW_COLS))
     for i in prange(n):
         f = nodes[i]
         px, py = x[i, 0], x[i, 1]
-        s0 = _node_score(pts, px, py, f, tp, tv, qp, qv, fl)
+        _node_rows(pts, f, tp, tv, qp, qv, buf)
+        s0 = _node_score_rows(px, py, f, tp, qp, buf, fl, -np.inf)
         lo0 = hi0 = 0.0
         if band >= 0:
-            lr, hr = _node_area_range(pts, px, py, f, tp, tv, qp, qv)
+            lr, hr = _node_area_range_rows(px, py, f, tp, qp, buf)
             lo0 = max(band * lr, min(alo, lr))
             hi0 = min(hr / band, max(ahi, hr))
         r = radius * scale[i]
@@ -303,11 +461,14 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
             bs = -np.inf
             for c in range(directions.shape[0]):
                 qx, qy = px + directions[c, 0] * r, py + directions[c, 1] * r
-                if band >= 0:
-                    lo, hi = _node_area_range(pts, qx, qy, f, tp, tv, qp, qv)
-                    sc = _node_score(pts, qx, qy, f, tp, tv, qp, qv, fl) if lo >= lo0 and hi <= hi0 else -np.inf
-                else:
-                    sc = _node_score(pts, qx, qy, f, tp, tv, qp, qv, fl)
+                # only a candidate above max(bs, s0) can change the outcome (the first best, moved to
+                # only if it beats s0), so the others may be cut off early and need no area band
+                cut = max(bs, s0)
+                sc = _node_score_rows(qx, qy, f, tp, qp, buf, fl, cut)
+                if band >= 0 and sc > cut:
+                    lo, hi = _node_area_range_rows(qx, qy, f, tp, qp, buf)
+                    if not (lo >= lo0 and hi <= hi0):
+                        sc = -np.inf
                 if c == 0 or sc > bs:  # np.argmax: the first best
                     bx, by, bs = qx, qy, sc
             if bs > s0:

@@ -32,9 +32,11 @@ import numpy as np
 from ..topology import Block, Topology
 from . import _fast
 from ._floors import Floors
+from ._rows import _CHUNK, _SMALL, _SMALL_SUBSET, _layout, _rowreduce, _Rows  # noqa: F401  (re-exported)
 
 INVALID = -3.0
 INVERTED_WEIGHT = 1000.0
+
 
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
@@ -42,106 +44,6 @@ def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return u[..., 0] * v[..., 0] + u[..., 1] * v[..., 1]
-
-
-_CHUNK = 16384  # rows per kernel call: the temporaries of one call stay in the L2 cache
-_SMALL = 4096  # up to this many rows, one ragged chunk (see _Rows)
-
-
-class _Rows:
-    """Rows (incident cells) of the block's nodes, grouped by the number of rows per node.
-
-    ``perm`` reorders the input rows so that the nodes with ``d`` rows are
-    contiguous (in node order, each node's rows in their original order); the
-    rows of such a group then reshape to (nodes, d) and reduce per node with
-    ``d - 1`` vectorized minimums instead of a ``reduceat`` (which pays per
-    segment).  ``chunks`` are (r0, r1, nodes, d) over the reordered rows, at
-    most about ``_CHUNK`` rows each.
-
-    A set of at most ``_SMALL`` rows (the small blocks of a small mesh, the few
-    nodes that get optimized) is one *ragged* chunk instead, ``d`` then being
-    the array of row counts per node: one numpy call per operation rather than
-    one per distinct count, where the calls' overhead outweighs their work.
-    """
-
-    def __init__(self, rel: np.ndarray, n: int):
-        counts = np.bincount(rel, minlength=n)
-        m = rel.shape[0]
-        if m <= _SMALL:
-            self.perm = np.argsort(rel, kind="stable")
-            nodes = np.flatnonzero(counts)
-            self.chunks = [(0, m, nodes, counts[nodes])] if m else []
-            return
-        if np.all(rel[1:] >= rel[:-1]):
-            offs = np.cumsum(counts) - counts
-            nodes = np.argsort(counts, kind="stable")
-            nodes = nodes[counts[nodes] > 0]
-            c = counts[nodes]
-            self.perm = np.repeat(offs[nodes] - (np.cumsum(c) - c), c) + np.arange(m)
-        else:
-            self.perm = np.lexsort((rel, counts[rel]))
-            first = np.ones(m, bool)
-            first[1:] = rel[self.perm][1:] != rel[self.perm][:-1]
-            nodes = rel[self.perm][first]
-            c = counts[nodes]
-        self.chunks = []
-        bounds = np.concatenate([[0], np.flatnonzero(np.diff(c)) + 1, [c.shape[0]]]).tolist()
-        r = 0
-        for g0, g1 in zip(bounds[:-1], bounds[1:]):
-            if g1 <= g0:
-                continue
-            d = int(c[g0])
-            step = max(1, _CHUNK // d)
-            for k0 in range(g0, g1, step):
-                k1 = min(k0 + step, g1)
-                self.chunks.append((r, r + (k1 - k0) * d, nodes[k0:k1], d))
-                r += (k1 - k0) * d
-
-
-def _rowreduce(vals: np.ndarray, d, ufunc=np.minimum) -> np.ndarray:
-    """``ufunc``-reduce every ``d`` consecutive values along the last axis: (..., m * d) -> (..., m).
-
-    ``d`` may also be an array of run lengths (a ragged chunk of :class:`_Rows`).
-    """
-    if not isinstance(d, int):
-        return ufunc.reduceat(vals, np.cumsum(d) - d, axis=-1)
-    w = vals.reshape(vals.shape[:-1] + (-1, d))
-    out = w[..., 0].copy()
-    for j in range(1, d):
-        ufunc(out, w[..., j], out=out)
-    return out
-
-
-def _layout(topo: Topology, blk: Block, subset: np.ndarray | None):
-    """Row layout of a block's incident cells (depends on the topology only, cached for whole blocks).
-
-    Returns (n, tri rows, tri rel, (v1, v2), quad rows, quad rel, (v1, v2, v3), tri ids, quad ids)
-    with the rows reordered by :class:`_Rows`, the vertex columns as contiguous index arrays and
-    the incidence row (index into ``topo.tri_verts`` / ``quad_verts``) of every row.
-    """
-    a = blk.nodes.start
-    n = blk.size
-    t_rel = topo.tri_loc[blk.tris] - a
-    t_v = topo.tri_verts[blk.tris]
-    t_ids = np.arange(topo.tri_loc.shape[0])[blk.tris]
-    q_rel = topo.quad_loc[blk.quads] - a
-    q_v = topo.quad_verts[blk.quads]
-    q_ids = np.arange(topo.quad_loc.shape[0])[blk.quads]
-    if subset is not None:
-        remap = np.full(n, -1, np.int64)
-        remap[subset] = np.arange(subset.shape[0])
-        keep = remap[t_rel] >= 0
-        t_rel, t_v, t_ids = remap[t_rel[keep]], t_v[keep], t_ids[keep]
-        keep = remap[q_rel] >= 0
-        q_rel, q_v, q_ids = remap[q_rel[keep]], q_v[keep], q_ids[keep]
-        n = subset.shape[0]
-    t_rows, q_rows = _Rows(t_rel, n), _Rows(q_rel, n)
-    t_cols = tuple(np.ascontiguousarray(t_v[t_rows.perm, k]) for k in (1, 2))
-    q_cols = tuple(np.ascontiguousarray(q_v[q_rows.perm, k]) for k in (1, 2, 3))
-    t_rel, q_rel = t_rel[t_rows.perm], q_rel[q_rows.perm]
-    t_ids, q_ids = t_ids[t_rows.perm], q_ids[q_rows.perm]  # incidence row of each layout row
-    t_rows.perm = q_rows.perm = None  # applied; not needed again
-    return n, t_rows, t_rel, t_cols, q_rows, q_rel, q_cols, t_ids, q_ids
 
 
 class BlockGeometry:
@@ -215,7 +117,7 @@ class BlockGeometry:
         ):
             rel = remap[getattr(self, rel_name)]
             keep = np.flatnonzero(rel >= 0)
-            rows = _Rows(rel[keep], g.n)
+            rows = _Rows(rel[keep], g.n, _SMALL_SUBSET)
             keep = keep[rows.perm]
             setattr(g, rows_name, rows)
             setattr(g, rel_name, rel[keep])
@@ -223,8 +125,12 @@ class BlockGeometry:
                 setattr(g, name, getattr(self, name)[keep])
         return g
 
-    def score(self, X: np.ndarray) -> np.ndarray:
-        """Local score of every node at candidate positions ``X`` (..., n, 2) -> (..., n)."""
+    def score(self, X: np.ndarray, band: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+        """Local score of every node at candidate positions ``X`` (..., n, 2) -> (..., n).
+
+        With ``band`` = (lo0, hi0) (per node), -inf where an incident area leaves [lo0, hi0]: the
+        areas come out of the same pass over the cells as the score (see :meth:`banded_score`).
+        """
         X = np.asarray(X, dtype=np.float64)
         lead = X.shape[:-2]
         Xf = X.reshape((-1, self.n, 2))
@@ -232,6 +138,9 @@ class BlockGeometry:
         x0, y0 = np.ascontiguousarray(Xf[..., 0]), np.ascontiguousarray(Xf[..., 1])
         best = np.full((K, self.n), np.inf)
         bad = np.zeros((K, self.n))
+        if band is not None:
+            lo = np.full((K, self.n), np.inf)
+            hi = np.full((K, self.n), -np.inf)
         with np.errstate(divide="ignore", invalid="ignore"):
             for rows, kernel, area, rel in (
                 (self._t, self._tri_chunk, self._tri_area, self.t_rel),
@@ -244,26 +153,35 @@ class BlockGeometry:
                         k1 = min(k0 + kb, K)
                         px = np.repeat(x0[k0:k1, nodes], d, axis=1)
                         py = np.repeat(y0[k0:k1, nodes], d, axis=1)
-                        vals, ok = kernel(px, py, r0, r1)
+                        vals, ok, ar = kernel(px, py, r0, r1, band is not None)
                         best[k0:k1, nodes] = np.minimum(best[k0:k1, nodes], _rowreduce(vals, d))
+                        if band is not None:
+                            lo[k0:k1, nodes] = np.minimum(lo[k0:k1, nodes], _rowreduce(ar, d))
+                            hi[k0:k1, nodes] = np.maximum(hi[k0:k1, nodes], _rowreduce(ar, d, np.maximum))
                         if not ok.all():
                             # an inverted cell (area <= 0) weighs more than any number of
                             # other invalid (non-convex) cells: swapping one for the other
                             # is never an improvement
-                            weight = np.where(area(px, py, r0, r1) > 0, 1.0, INVERTED_WEIGHT)[~ok]
+                            weight = np.where((area(px, py, r0, r1) if ar is None else ar) > 0, 1.0,
+                                              INVERTED_WEIGHT)[~ok]
                             kk, rr = np.nonzero(~ok)
                             cnt = np.bincount(kk * self.n + rel[r0 + rr], weights=weight, minlength=(k1 - k0) * self.n)
                             bad[k0:k1] += cnt.reshape(k1 - k0, self.n)
         out = np.where(bad > 0, INVALID - bad, best)
+        if band is not None:
+            out = np.where((lo >= band[0]) & (hi <= band[1]), out, -np.inf)
         return out.reshape(lead + (self.n,))
 
     def banded_score(self, X: np.ndarray, lo0: np.ndarray, hi0: np.ndarray) -> np.ndarray:
-        """The score at ``X`` where every incident area stays within [lo0, hi0] (per node), -inf elsewhere."""
-        lo, hi = self.area_range(X)
-        return np.where((lo >= lo0) & (hi <= hi0), self.score(X), -np.inf)
+        """The score at ``X`` where every incident area stays within [lo0, hi0] (per node), -inf elsewhere.
 
-    def _tri_chunk(self, px, py, r0, r1):
-        """(-max cos of the three corners, valid) for triangle rows r0:r1.
+        The same numbers as ``np.where`` of :meth:`area_range` and :meth:`score`, in one pass: the
+        score kernels' corner cross products give the areas exactly (``_tri_chunk``, ``_quad_chunk``).
+        """
+        return self.score(X, (lo0, hi0))
+
+    def _tri_chunk(self, px, py, r0, r1, want_area=False):
+        """(-max cos of the three corners, valid, area or None) for triangle rows r0:r1.
 
         With f2 = p0 - p2 = -(p2 - p0) (exact in floating point), the negated
         cosines come out without negations: -cos0 = e1.f2 / (l1 l2),
@@ -278,6 +196,9 @@ class BlockGeometry:
         l1 = np.sqrt(ex1 * ex1 + ey1 * ey1)
         l2 = np.sqrt(fx2 * fx2 + fy2 * fy2)
         cr = ex1 * fy2 - ey1 * fx2
+        # the area, _tri_area's 0.5 * (e1 x e2) (up to the sign of a zero, which no comparison sees):
+        # fx2 = -ex2 and fy2 = -ey2 exactly, so cr = -(e1 x e2) exactly (rounding is symmetric)
+        ar = -0.5 * cr if want_area else None
         ok = cr < 0
         if self.floors:  # -cr is twice the area
             ok &= (-cr >= self.t_fa[r0:r1]) & (l1 >= self.t_f1[r0:r1]) & (l2 >= self.t_f2[r0:r1])
@@ -287,10 +208,10 @@ class BlockGeometry:
         ok &= np.isfinite(vals)
         if not ok.all():
             vals[~ok] = np.inf
-        return vals, ok
+        return vals, ok, ar
 
-    def _quad_chunk(self, px, py, r0, r1):
-        """(-max |cos| of the four corners, valid) for quad rows r0:r1."""
+    def _quad_chunk(self, px, py, r0, r1, want_area=False):
+        """(-max |cos| of the four corners, valid, area or None) for quad rows r0:r1."""
         ux, uy, l12 = self.q_ux[r0:r1], self.q_uy[r0:r1], self.q_l12[r0:r1]
         vx, vy, l23 = self.q_vx[r0:r1], self.q_vy[r0:r1], self.q_l23[r0:r1]
         ex1 = self.q_x1[r0:r1] - px
@@ -303,9 +224,13 @@ class BlockGeometry:
         ok &= uy * ex1 - ux * ey1 > 0  # corner 1: e12 x (-e1)
         ok &= ex3 * vy - ey3 * vx > 0  # corner 3: e3 x e23
         ok &= self.q_ok2[r0:r1]
-        if self.floors:
+        ar = None
+        if self.floors or want_area:
+            # twice the area: the same operations as _quad_area's
             x1, y1 = self.q_x1[r0:r1], self.q_y1[r0:r1]
             a2 = (x1 + ux - px) * (self.q_y3[r0:r1] - y1) - (y1 + uy - py) * (self.q_x3[r0:r1] - x1)
+            ar = 0.5 * a2 if want_area else None
+        if self.floors:
             ok &= (a2 >= self.q_fa[r0:r1]) & (l1 >= self.q_f1[r0:r1]) & (l3 >= self.q_f3[r0:r1])
         cm = np.abs((ex1 * ex3 + ey1 * ey3) / (l1 * l3))
         np.maximum(cm, np.abs((ux * ex1 + uy * ey1) / (l12 * l1)), out=cm)
@@ -316,7 +241,7 @@ class BlockGeometry:
         np.negative(cm, out=cm)
         if not ok.all():
             cm[~ok] = np.inf
-        return cm, ok
+        return cm, ok, ar
 
     def area_range(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Smallest and largest signed area of each node's incident cells at positions ``X`` (..., n, 2)."""
