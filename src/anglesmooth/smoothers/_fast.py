@@ -433,12 +433,14 @@ def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, ne
     stage 2 takes the good-enough candidate nearest the angle position (see :func:`.angle.step`).
     """
     rp, sp, tp, qp = _csr(topo)
-    good = np.ascontiguousarray(np.broadcast_to(np.asarray(good, dtype=np.float64), (blk.size,)))
+    # always fresh writeable copies: a broadcast view is read-only, another compiled signature (a
+    # scalar ``good``, as in warm_up, copied, and a per-node one did not: two compiles)
+    good = np.array(np.broadcast_to(np.asarray(good, dtype=np.float64), (blk.size,)))
     return _run(
         _k().angle_choose,
         points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,
         rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, good, _floors(floors),
-        np.zeros(0, np.bool_) if keep is None else np.ascontiguousarray(keep, dtype=np.bool_), bool(nearest),
+        np.zeros(0, np.bool_) if keep is None else np.array(keep, dtype=np.bool_), bool(nearest),
     )
 
 
