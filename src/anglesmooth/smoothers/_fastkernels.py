@@ -22,11 +22,11 @@ from ._local import INVALID, INVERTED_WEIGHT
 # reassociation or fused multiply-adds and the same rounding as numpy
 _OPTS = {"cache": True, "error_model": "numpy", "parallel": False, "nogil": True}
 _TWO_PI = 2 * np.pi
-# the per-node helpers: ordinary compiled functions (the same error model), called, not inlined by
-# numba (``inline="always"`` typed and optimized a fresh copy of ``_node_score`` at each of its four
-# call sites in ``angle_choose`` and three in ``compass``: 13-21 s of a cold default run's compile on
-# the loaded 2-core VM against 4.4-6 s so; LLVM still inlines where it pays).  A helper compiles once
-# per process and is stored inside each cached kernel that calls it.
+# ``_node_score`` is an ordinary compiled function (the same error model), called, not inlined by
+# numba: ``inline="always"`` typed and optimized a fresh copy of it at each of its four call sites in
+# ``angle_choose`` and three in ``compass`` (a cold default run compiled 13-21 s on the loaded 2-core
+# VM, 4.4-6 s so).  It compiles once per process and is stored inside each cached kernel that calls
+# it.  The small helpers stay inlined.
 _helper = njit(error_model="numpy", nogil=True)
 
 
@@ -106,7 +106,7 @@ def _node_score(pts, px, py, f, tp, tv, qp, qv, fl):
     return INVALID - bad if bad > 0 else best
 
 
-@_helper
+@njit(inline="always")
 def _node_area_range(pts, px, py, f, tp, tv, qp, qv):
     """``BlockGeometry.area_range`` for one node: ``_tri_area`` / ``_quad_area``."""
     lo = np.inf
@@ -141,7 +141,7 @@ def score(pts, X, nodes, tp, tv, qp, qv, fl):
     return out
 
 
-@_helper
+@njit(inline="always")
 def _node_angle(pts, f, free, sp, ring, sa, sb, frac):
     """``angle_target`` / ``_angle_sums`` for one node: the mean of its rotated spoke positions."""
     cx, cy = pts[free[f], 0], pts[free[f], 1]
@@ -182,7 +182,7 @@ def _node_angle(pts, f, free, sp, ring, sa, sb, frac):
     return sx / c, sy / c
 
 
-@_helper
+@njit(inline="always")
 def _node_ring_mean(pts, f, free, rp, nbr, lengths):
     """``laplacian_target`` (the neighbours' centroid) or, with ``lengths``, ``local_scale`` for one node."""
     cx, cy = pts[free[f], 0], pts[free[f], 1]
