@@ -7,6 +7,8 @@ on ``sys.path`` for test modules in it, so ``import meshes`` works there.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from anglesmooth import generate as gen
@@ -16,6 +18,8 @@ __all__ = [
     "compact",
     "distorted",
     "five_element",
+    "gmsh_files",
+    "gmsh_two_squares",
     "mixed_small",
     "paper_mixed",
     "paper_quads",
@@ -134,3 +138,52 @@ def paper_mixed(seed: int = 0) -> Mesh2D:
 def paper_quads(seed: int = 0) -> Mesh2D:
     """Section 5.4: 571 nodes, 530 quads."""
     return gen.paper_quad_mesh(seed)
+
+
+# --------------------------------------------------------------------------- gmsh-built files (tests that import gmsh)
+
+
+def gmsh_two_squares():
+    """Two unit squares side by side in the current gmsh model (OCC, fragmented, synchronized):
+    ``(left, right)``, the surface tags of each."""
+    import gmsh
+
+    occ = gmsh.model.occ
+    a = occ.addRectangle(0, 0, 0, 1, 1)
+    b = occ.addRectangle(1, 0, 0, 1, 1)
+    occ.fragment([(2, a)], [(2, b)])
+    occ.synchronize()
+    surfaces = [t for _, t in gmsh.model.getEntities(2)]
+    left = [t for t in surfaces if occ.getCenterOfMass(2, t)[0] < 1]
+    right = [t for t in surfaces if occ.getCenterOfMass(2, t)[0] > 1]
+    return left, right
+
+
+def gmsh_files(root, models, variants, after_meshing=None) -> dict:
+    """``{(model, variant): path}``: every model (name -> a function building it in a fresh gmsh model)
+    meshed in 2D and written in every variant (name -> (MSH version, binary)) under ``root``.
+
+    ``after_meshing`` (name -> function) runs after meshing that model, before writing it.
+    """
+    import gmsh
+
+    out = {}
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        for name, build in models.items():
+            gmsh.clear()
+            gmsh.option.restoreDefaults()
+            gmsh.option.setNumber("General.Terminal", 0)
+            gmsh.model.add(name)
+            build()
+            gmsh.model.mesh.generate(2)
+            if after_meshing and name in after_meshing:
+                after_meshing[name]()
+            for var, (version, binary) in variants.items():
+                gmsh.option.setNumber("Mesh.MshFileVersion", version)
+                gmsh.option.setNumber("Mesh.Binary", binary)
+                out[name, var] = Path(root) / f"{name}_{var}.msh"
+                gmsh.write(str(out[name, var]))
+    finally:
+        gmsh.finalize()
+    return out

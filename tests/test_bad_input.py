@@ -35,7 +35,6 @@ Decisions documented here (and in BAD_INPUTS.md):
 
 from __future__ import annotations
 
-import hashlib
 import os
 import re
 import subprocess
@@ -47,7 +46,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from cli_runner import cli_runner
+from cli_runner import PREFIX, cli_runner, error_line, snapshot
 
 from anglesmooth.cli import smooth as cli_module
 from anglesmooth import io as asio
@@ -58,7 +57,6 @@ from anglesmooth.mesh import Mesh2D
 
 HERE = Path(__file__).parent
 TABLE = HERE / "BAD_INPUTS.md"
-PREFIX = "anglesmooth: error: "
 
 
 # --------------------------------------------------------------------------- building inputs
@@ -360,14 +358,6 @@ BY_ID = {c.id: c for c in CASES}
 
 
 
-def snapshot(d: Path) -> dict[str, str | None]:
-    """Every path under ``d`` with the sha256 of its content (None for directories)."""
-    out = {}
-    for p in sorted(d.rglob("*")):
-        out[str(p.relative_to(d))] = None if p.is_dir() else hashlib.sha256(p.read_bytes()).hexdigest()
-    return out
-
-
 @dataclass
 class Outcome:
     code: int
@@ -401,14 +391,6 @@ def run_case(case: Case, d: Path, subprocess_: bool = False, env: dict | None = 
         assert r.stdout == ""
         code, stderr = r.exit_code, r.stderr
     return Outcome(code, stderr, before, snapshot(d), inp, out)
-
-
-def error_line(stderr: str) -> str:
-    lines = [line for line in stderr.splitlines() if line.strip()]
-    assert len(lines) == 1, stderr
-    assert lines[0].startswith(PREFIX), stderr
-    assert "Traceback" not in stderr
-    return lines[0]
 
 
 def check_outcome(case: Case, o: Outcome) -> None:
@@ -514,6 +496,16 @@ def test_zero_area_cells_are_reported(tmp_path):
 # --------------------------------------------------------------------------- out of memory, write failures
 
 
+def _out_of_memory(d: Path, words: str) -> None:
+    """Smooth a small file with a MemoryError patched in: exit 3, one line holding ``words``, nothing written."""
+    inp = vtu(P3, [("triangle", T)])(d)
+    before = snapshot(d)
+    r = cli_runner().invoke(cli, [str(inp), str(d / "o.vtu")])
+    assert r.exit_code == 3
+    assert words in error_line(r.stderr)
+    assert snapshot(d) == before
+
+
 def test_memory_error_while_reading_is_one_line(tmp_path, monkeypatch):
     from meshio._helpers import reader_map
 
@@ -521,12 +513,7 @@ def test_memory_error_while_reading_is_one_line(tmp_path, monkeypatch):
         raise MemoryError()
 
     monkeypatch.setitem(reader_map, "vtu", boom)
-    inp = vtu(P3, [("triangle", T)])(tmp_path)
-    before = snapshot(tmp_path)
-    r = cli_runner().invoke(cli, [str(inp), str(tmp_path / "o.vtu")])
-    assert r.exit_code == 3
-    assert "too large to read: out of memory" in error_line(r.stderr)
-    assert snapshot(tmp_path) == before
+    _out_of_memory(tmp_path, "too large to read: out of memory")
 
 
 @pytest.mark.parametrize("where", ["build_topology", "run_smooth", "summarize"])
@@ -535,12 +522,7 @@ def test_memory_error_later_is_one_line(tmp_path, monkeypatch, where):
         raise MemoryError()
 
     monkeypatch.setattr(cli_module, where, boom)
-    inp = vtu(P3, [("triangle", T)])(tmp_path)
-    before = snapshot(tmp_path)
-    r = cli_runner().invoke(cli, [str(inp), str(tmp_path / "o.vtu")])
-    assert r.exit_code == 3
-    assert "out of memory" in error_line(r.stderr)
-    assert snapshot(tmp_path) == before
+    _out_of_memory(tmp_path, "out of memory")
 
 
 def test_memory_error_while_writing_leaves_nothing(tmp_path, monkeypatch):
@@ -548,12 +530,7 @@ def test_memory_error_while_writing_leaves_nothing(tmp_path, monkeypatch):
         raise MemoryError()
 
     monkeypatch.setattr(asio, "_write_meshio", boom)
-    inp = vtu(P3, [("triangle", T)])(tmp_path)
-    before = snapshot(tmp_path)
-    r = cli_runner().invoke(cli, [str(inp), str(tmp_path / "o.vtu")])
-    assert r.exit_code == 3
-    assert "out of memory" in error_line(r.stderr)
-    assert snapshot(tmp_path) == before
+    _out_of_memory(tmp_path, "out of memory")
 
 
 def test_huge_declared_node_count(tmp_path):
@@ -701,3 +678,51 @@ if __name__ == "__main__":
     with tempfile.TemporaryDirectory() as tmp:
         TABLE.write_text(render(table_rows(Path(tmp))), encoding="utf-8")
     print(f"wrote {TABLE}")
+
+
+# --- corrupt gmsh files: the reason in words, the technical detail after it -------------------
+
+_MSH22_HEAD = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n{n3} 1 1 0\n4 0 1 0\n$EndNodes\n"
+
+
+@pytest.mark.parametrize(
+    "nodes3, last_cell, words",
+    [
+        ("3", "1 3 9", "a cell refers to a node the file does not define, or node numbers repeat; IndexError"),
+        ("2", "1 3 4", "references node -1, a node the file does not define (in a gmsh file: a node tag missing or repeated)"),
+    ],
+    ids=["missing-node-tag", "repeated-node-tag"],
+)
+def test_corrupt_gmsh_node_tags_are_named(tmp_path, nodes3, last_cell, words):
+    from anglesmooth import read
+    from anglesmooth.errors import InvalidMeshError, MeshReadError
+
+    p = tmp_path / "bad.msh"
+    p.write_text(_MSH22_HEAD.format(n3=nodes3) + f"$Elements\n2\n1 2 2 0 1 1 2 3\n2 2 2 0 1 {last_cell}\n$EndElements\n")
+    with pytest.raises((MeshReadError, InvalidMeshError)) as e:
+        read(p)
+    assert words in str(e.value) and "\n" not in str(e.value)
+
+
+def test_truncated_gmsh_file_says_truncated(tmp_path):
+    """A gmsh file cut in the middle of its node block: meshio's reshape error comes with the words."""
+    import gmsh
+
+    from anglesmooth import read
+    from anglesmooth.errors import MeshReadError
+
+    full = tmp_path / "full.msh"
+    gmsh.initialize(["-noenv"])
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.occ.addRectangle(0, 0, 0, 1, 1)
+        gmsh.model.occ.synchronize()
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(full))
+    finally:
+        gmsh.finalize()
+    text = full.read_text()
+    cut = tmp_path / "cut.msh"
+    cut.write_text(text[: text.index("$EndNodes") // 2 + len(text[: text.index("$Nodes")]) // 2])
+    with pytest.raises(MeshReadError, match=r"not a valid gmsh file \((truncated or corrupt; |.*: truncated or corrupt)"):
+        read(cut)

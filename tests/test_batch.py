@@ -9,7 +9,6 @@ results with their timings removed.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import pickle
@@ -20,7 +19,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from cli_runner import cli_runner
+from cli_runner import cli_runner, digest
 
 from anglesmooth import FileResult, Mesh2D, check_files, read, smooth_files
 from anglesmooth.batch import BatchError, find_mesh_files, output_name
@@ -34,10 +33,6 @@ ENV = dict(os.environ, PYTHONPATH=os.pathsep.join([SRC, os.environ.get("PYTHONPA
 
 def run(*args):
     return cli_runner().invoke(cli, [str(a) for a in args])
-
-
-def digest(path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def tree(d: Path) -> dict[str, str]:
@@ -120,6 +115,31 @@ def test_suffix_and_output_format_name_the_outputs(work, monkeypatch):
     # --suffix alone writes beside each input
     assert run("in/a.msh", "in/b.vtu", "--suffix", ".smooth", "-q").exit_code == 0
     assert {"a.smooth.msh", "b.smooth.vtu"} <= set(os.listdir(work / "in"))
+
+
+def test_a_directory_with_an_output_points_to_output_dir(work, monkeypatch):
+    """'anglesmooth in/ out/' said "cannot write 'out/': it is a directory" (out/ did not exist)."""
+    monkeypatch.chdir(work)
+    before = tree(work)
+    result = run("in/", "out/")
+    assert result.exit_code == 3
+    assert error_lines(result.stderr) == ["anglesmooth: error: cannot read 'in/': is a directory (to smooth every "
+                                          "mesh file in it, give --output-dir DIR: anglesmooth smooth 'in/' "
+                                          "--output-dir DIR)"]
+    assert tree(work) == before and not (work / "out").exists()
+
+
+@pytest.mark.parametrize("suffix", ["/x", "/../../x", "_s/"])
+def test_a_suffix_with_a_slash_is_a_usage_error(work, monkeypatch, suffix):
+    """--suffix /x was an internal error (exit 4, ValueError from the path library)."""
+    monkeypatch.chdir(work)
+    before = tree(work)
+    result = run("in/a.msh", "in/b.vtu", "--suffix", suffix)
+    assert result.exit_code == 2
+    assert error_lines(result.stderr) == [f"anglesmooth: error: the suffix {suffix!r} (--suffix) is added to each "
+                                          "file name and must not contain '/' (put the outputs in another "
+                                          "directory with --output-dir)"]
+    assert tree(work) == before
 
 
 def test_directory_input_is_walked_and_mirrored(work, single, monkeypatch):
@@ -399,6 +419,10 @@ def test_check_directory_with_exclude(work, monkeypatch):
     assert result.exit_code == 0 and "every file matches --exclude" in result.stderr
     result = run("check", "in/notes-*.vtu")  # a pattern that finds nothing is a file that does not exist
     assert result.exit_code == 3 and "no such file" in result.stderr
+    (work / "empty").mkdir()
+    result = run("check", "empty")  # a directory without mesh files: a usage error (README)
+    assert result.exit_code == 2 and error_lines(result.stderr)[0].startswith(
+        "anglesmooth: error: no mesh files found in 'empty' (suffixes searched: .msh .vtu")
 
 
 def test_check_jobs_2_output_is_identical(work, monkeypatch):

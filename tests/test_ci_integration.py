@@ -213,6 +213,22 @@ def test_github_format_goes_to_stderr_when_stdout_carries_the_report(meshes):
     assert any(x.startswith("::error file=") for x in result.stderr.splitlines())
 
 
+@pytest.mark.parametrize("report", [["--json", "/dev/stdout"], ["--junit-xml", "/dev/fd/1"]])
+def test_github_format_goes_to_stderr_when_a_report_names_stdout_by_path(meshes, report):
+    """--json /dev/stdout is stdout as much as --json -: the workflow commands must not land inside the JSON."""
+    proc = subprocess.run([sys.executable, "-m", "anglesmooth", "check", str(meshes["tangled"]), "--format", "github",
+                           "-q", *report], capture_output=True, timeout=120,
+                          env={**os.environ, "PYTHONPATH": str(SRC)})
+    assert proc.returncode == 1, proc.stderr
+    out = proc.stdout.decode()
+    assert "::" not in out
+    if report[0] == "--json":
+        json.loads(out)
+    else:
+        ET.fromstring(out)
+    assert any(x.startswith("::error file=") for x in proc.stderr.decode().splitlines())
+
+
 def test_github_format_on_smoothing_with_gates(meshes, tmp_path):
     out = tmp_path / "o.vtu"
     result = run(meshes["mixed"], out, "-n", "2", "--min-angle", "89", "--format", "github", "-q")
@@ -221,7 +237,7 @@ def test_github_format_on_smoothing_with_gates(meshes, tmp_path):
     assert ERROR_LINE.fullmatch(lines[0])["file"] == str(out)
     assert lines[-1] == "::notice title=anglesmooth::1 file: 0 passed, 1 failed (1 gate)"
     # no gates: no annotations at all
-    result = run(meshes["mixed"], out, "-n", "1", "--format", "github", "-q", "--force")  # --force: OUTPUT exists
+    result = run(meshes["mixed"], out, "-n", "1", "--format", "github", "-q")  # OUTPUT exists: replaced
     assert result.exit_code == 0 and result.stdout == ""
 
 
@@ -278,16 +294,16 @@ def test_format_choices_come_from_the_registry():
 def test_progress_lines_when_stderr_is_not_a_terminal(meshes, tmp_path, monkeypatch):
     out = tmp_path / "o.vtu"
     monkeypatch.setattr(cli_outputs, "PROGRESS_EVERY_S", 0.0)
-    result = run(meshes["mixed"], out, "-n", "3", "--progress", "--force")  # --force: OUTPUT exists after the 1st
+    result = run(meshes["mixed"], out, "-n", "3", "--progress")  # OUTPUT exists after the 1st: replaced
     lines = [x for x in result.stderr.splitlines() if x.startswith("smoothing:")]
     assert lines[0].startswith("smoothing: up to 3 passes over ")
     assert [re.match(r"smoothing: pass (\d)/3, displacement \S+, [\d.]+ s$", x)[1] for x in lines[1:]] == ["1", "2", "3"]
     monkeypatch.setattr(cli_outputs, "PROGRESS_EVERY_S", 3600.0)
-    result = run(meshes["mixed"], out, "-n", "3", "--progress", "--force")  # --force: OUTPUT exists after the 1st
+    result = run(meshes["mixed"], out, "-n", "3", "--progress")  # OUTPUT exists after the 1st: replaced
     lines = [x for x in result.stderr.splitlines() if x.startswith("smoothing:")]
     assert len(lines) == 2 and lines[1].startswith("smoothing: pass 3/3")  # the start and the last pass only
     for args in ([], ["--no-progress"], ["--progress", "-q"]):
-        result = run(meshes["mixed"], out, "-n", "3", "--force", *args)
+        result = run(meshes["mixed"], out, "-n", "3", *args)
         assert "smoothing:" not in result.stderr
 
 

@@ -6,7 +6,6 @@ so the whole module runs in a few seconds.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import shutil
@@ -18,7 +17,7 @@ import time
 import meshio
 import numpy as np
 import pytest
-from cli_runner import cli_runner
+from cli_runner import cli_runner, digest
 
 import anglesmooth
 from anglesmooth import SMOOTHERS, build_topology, read, write
@@ -42,10 +41,6 @@ SMOOTH_KEYS = {
 
 def run(*args, input=None):
     return cli_runner().invoke(cli, [str(a) for a in args], input=input)
-
-
-def digest(path) -> str:
-    return hashlib.sha256(open(path, "rb").read()).hexdigest()
 
 
 def one_error_line(result) -> str:
@@ -220,6 +215,25 @@ def test_in_place(meshes, tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["m.vtu"]  # no temporary files left
 
 
+def test_in_place_refuses_another_format(meshes, tmp_path):
+    """--in-place --output-format vtu on a .msh wrote VTU into the .msh: the input was lost. Another MSH version
+    (or the format a configuration file names, when it is the input's) is still the input's format."""
+    src = tmp_path / "m.msh"
+    shutil.copy(meshes["msh"], src)
+    h = digest(src)
+    one = run(src, "--in-place", "--output-format", "vtu")  # one file
+    shutil.copy(src, tmp_path / "m2.msh")
+    many = run(src, tmp_path / "m2.msh", "--in-place", "--output-format", "vtk")  # several files
+    (tmp_path / "m2.msh").unlink()
+    for result in (one, many):
+        assert result.exit_code == 2
+        line = [x for x in result.stderr.splitlines() if x.startswith("anglesmooth: error: ")][0]
+        assert "--in-place keeps the format of" in line and "would write another format under its name" in line
+    assert digest(src) == h and sorted(os.listdir(tmp_path)) == ["m.msh"]
+    result = run(src, "--in-place", "--output-format", "gmsh22", "-q")
+    assert result.exit_code == 0 and src.read_bytes().startswith(b"$MeshFormat\n2.2")
+
+
 # ------------------------------------------------------------------ pipelines
 
 
@@ -266,7 +280,20 @@ def test_usage_errors_after_parsing(meshes, tmp_path, args, needle):
     assert result.stdout == ""
 
 
-@pytest.mark.parametrize("args", [["--method", "nope"], ["--passes", "-1"], ["--order", "random"], ["--bogus"]])
+@pytest.mark.parametrize("command", ["check", "compare"])
+def test_options_before_a_command_name_say_so(meshes, tmp_path, monkeypatch, command):
+    """'anglesmooth --quiet check a.msh' implies smooth with INPUT 'check': was exit 3 'cannot read 'check''."""
+    monkeypatch.chdir(tmp_path)
+    result = run("--quiet", command, meshes["msh"])
+    assert result.exit_code == 2
+    assert f"to run the {command} command, give the options after its name" in one_error_line(result)
+    assert os.listdir(tmp_path) == []
+    shutil.copy(meshes["msh"], tmp_path / command)  # a mesh file of that name is still smoothed
+    assert run("-q", command, "o.msh").exit_code == 0 and (tmp_path / "o.msh").exists()
+
+
+@pytest.mark.parametrize("args", [["--method", "nope"], ["--passes", "-1"], ["--order", "random"], ["--bogus"],
+                                  ["--tol", "nan"], ["--tol", "-1"]])
 def test_click_usage_errors_exit_2(meshes, tmp_path, args):
     result = run(meshes["msh"], tmp_path / "o.vtu", *args)
     assert result.exit_code == 2

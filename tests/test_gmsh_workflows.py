@@ -22,8 +22,9 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from cli_runner import cli_runner
+from cli_runner import cli_runner, snapshot
 from gmsh_check import gmsh_view, same_for_gmsh
+from meshes import gmsh_files, gmsh_two_squares
 
 import anglesmooth
 from anglesmooth import io as asio
@@ -79,13 +80,7 @@ def _partial_recombination():
 
 def _unnamed_two_dims():
     """Two squares, physical numbers without names, number 7 used in dimensions 1 and 2."""
-    occ = gmsh.model.occ
-    a = occ.addRectangle(0, 0, 0, 1, 1)
-    b = occ.addRectangle(1, 0, 0, 1, 1)
-    occ.fragment([(2, a)], [(2, b)])
-    occ.synchronize()
-    left = [t for _, t in gmsh.model.getEntities(2) if gmsh.model.occ.getCenterOfMass(2, t)[0] < 1]
-    right = [t for _, t in gmsh.model.getEntities(2) if gmsh.model.occ.getCenterOfMass(2, t)[0] > 1]
+    left, right = gmsh_two_squares()
     mid = [t for _, t in gmsh.model.getEntities(1) if abs(gmsh.model.occ.getCenterOfMass(1, t)[0] - 1) < 1e-9]
     gmsh.model.addPhysicalGroup(2, left, 7)
     gmsh.model.addPhysicalGroup(2, right, 8)
@@ -121,12 +116,7 @@ def _periodic():
 
 def _save_all():
     """Two squares, only the right one in a physical group, saved with Mesh.SaveAll = 1."""
-    occ = gmsh.model.occ
-    a = occ.addRectangle(0, 0, 0, 1, 1)
-    b = occ.addRectangle(1, 0, 0, 1, 1)
-    occ.fragment([(2, a)], [(2, b)])
-    occ.synchronize()
-    right = [t for _, t in gmsh.model.getEntities(2) if gmsh.model.occ.getCenterOfMass(2, t)[0] > 1]
+    _, right = gmsh_two_squares()
     gmsh.model.addPhysicalGroup(2, right, 5, name="right")
     gmsh.option.setNumber("Mesh.SaveAll", 1)
     gmsh.option.setNumber("Mesh.MeshSizeMax", 0.2)
@@ -173,27 +163,7 @@ VARIANTS = {"41a": (4.1, 0), "41b": (4.1, 1), "22a": (2.2, 0)}
 
 @pytest.fixture(scope="session")
 def msh(tmp_path_factory):
-    root = tmp_path_factory.mktemp("gmsh_workflows")
-    out = {}
-    gmsh.initialize(readConfigFiles=False)
-    try:
-        for name, build in MODELS.items():
-            gmsh.clear()
-            gmsh.option.restoreDefaults()
-            gmsh.option.setNumber("General.Terminal", 0)
-            gmsh.model.add(name)
-            build()
-            gmsh.model.mesh.generate(2)
-            if name == "moved":
-                _moved_by_gmsh()
-            for var, (version, binary) in VARIANTS.items():
-                gmsh.option.setNumber("Mesh.MshFileVersion", version)
-                gmsh.option.setNumber("Mesh.Binary", binary)
-                out[name, var] = root / f"{name}_{var}.msh"
-                gmsh.write(str(out[name, var]))
-    finally:
-        gmsh.finalize()
-    return out
+    return gmsh_files(tmp_path_factory.mktemp("gmsh_workflows"), MODELS, VARIANTS, {"moved": _moved_by_gmsh})
 
 
 def run(*args):
@@ -448,6 +418,25 @@ def test_fix_group_by_number(msh, tmp_path, var):
     assert np.array_equal(meshio.read(tmp_path / "p.vtu").points[m.physical[2, 7]], src[m.physical[2, 7]])
 
 
+def test_many_files_find_groups_by_number_as_one_file_does(msh, tmp_path):
+    """--fix-group 1:7 / 8 in a many-file run (--output-dir) fixes what it fixes in a one-file run, bit for bit."""
+    inputs = [msh["unnamed", "41a"], msh["unnamed", "22a"]]
+    r = run(*inputs, "--output-dir", tmp_path / "many", "-q", "--fix-group", "1:7", "--output-format", "vtu")
+    assert r.exit_code == 0, r.stderr
+    m = anglesmooth.read(inputs[0])
+    mid = m.physical[1, 7]
+    for path in inputs:
+        one = tmp_path / f"one_{path.stem}.vtu"
+        assert run(path, one, "-q", "--fix-group", "1:7").exit_code == 0
+        got = meshio.read(tmp_path / "many" / f"{path.stem}.vtu").points
+        assert np.array_equal(got, meshio.read(one).points)
+        assert np.array_equal(got[mid], meshio.read(path).points[mid])
+    r = run(*inputs, "--output-dir", tmp_path / "bad", "--fix-group", "7")
+    assert r.exit_code == 2
+    lines = [line for line in r.stderr.splitlines() if "error" in line]
+    assert len(lines) == 2 and all("write 1:7 or 2:7" in line for line in lines), r.stderr
+
+
 def test_fix_group_errors_list_names_and_numbers(msh, tmp_path):
     r = run(msh["unnamed", "41a"], tmp_path / "o.vtu", "--fix-group", "7")
     assert r.exit_code == 2 and "write 1:7 or 2:7" in one_error(r)
@@ -523,7 +512,7 @@ def test_vtk_encoding_kept(msh, tmp_path):
     m = anglesmooth.read(msh["partial", "41a"])
     for binary, word in ((False, b"ASCII"), (True, b"BINARY")):
         asio.write(m, tmp_path / "in.vtk", binary=binary)
-        r = run(tmp_path / "in.vtk", tmp_path / "out.vtk", "-q", "--force")
+        r = run(tmp_path / "in.vtk", tmp_path / "out.vtk", "-q")
         assert r.exit_code == 0, r.stderr
         assert (tmp_path / "out.vtk").read_bytes().split(b"\n")[2].strip() == word
 
@@ -571,24 +560,32 @@ def test_msh_vtu_msh_brings_physical_names_back(msh, tmp_path):
 # ---------------------------------------------------------------------------
 
 
-def test_glob_accident_does_not_destroy_the_second_mesh(msh, tmp_path):
+def test_an_existing_output_is_replaced_the_input_never(msh, tmp_path):
+    """An existing OUTPUT of the input's format is replaced, as gmsh -o and cp do (a re-run, a Makefile rule);
+    the input itself (by name, symlink or hard link) needs --force; nothing else in the directory changes."""
     a, b = tmp_path / "a.msh", tmp_path / "b.msh"
     a.write_bytes(msh["bl", "41a"].read_bytes())
     b.write_bytes(msh["partial", "41a"].read_bytes())
-    before = b.read_bytes()
-    r = run(a, b)  # what 'anglesmooth *.msh' gives
-    assert r.exit_code == 2
-    assert "exists and is a gmsh file like the input" in one_error(r) and "--force" in one_error(r)
-    assert b.read_bytes() == before
-    r = run(a, b, "--force", "-q")
-    assert r.exit_code == 0 and b.read_bytes() != before
-    # an existing output of another format (a previous result) is replaced as before
-    r = run(a, tmp_path / "o.vtu", "-q")
-    assert r.exit_code == 0
-    r = run(a, tmp_path / "o.vtu", "-q", "--passes", "1")
-    assert r.exit_code == 0
-    help_text = cli_runner().invoke(cli, ["smooth", "--help"]).stdout
-    assert "existing OUTPUT of the input's format" in " ".join(help_text.split())
+    os.chmod(b, 0o640)
+    (tmp_path / "sym.msh").symlink_to(a)
+    os.link(a, tmp_path / "hard.msh")
+    before = snapshot(tmp_path)
+    r = run(a, b, "-q")
+    assert r.exit_code == 0, r.stderr
+    after = snapshot(tmp_path)
+    assert after["b.msh"] != before["b.msh"]
+    assert {k: v for k, v in after.items() if k != "b.msh"} == {k: v for k, v in before.items() if k != "b.msh"}
+    assert os.stat(b).st_mode & 0o777 == 0o640
+    assert anglesmooth.read(b).n_cells == anglesmooth.read(a).n_cells  # a's mesh, smoothed
+    first = b.read_bytes()
+    r = run(a, b, "-q")  # run again: the same result replaces the previous one
+    assert r.exit_code == 0 and b.read_bytes() == first
+    for name in ("a.msh", "sym.msh", "hard.msh"):
+        r = run(a, tmp_path / name)
+        assert r.exit_code == 2 and "is the input file; pass --force or --in-place" in one_error(r)
+    assert snapshot(tmp_path) == after
+    help_text = " ".join(cli_runner().invoke(cli, ["smooth", "--help"]).stdout.split())
+    assert "An existing OUTPUT is replaced" in help_text
 
 
 # ---------------------------------------------------------------------------

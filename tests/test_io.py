@@ -9,6 +9,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
+from meshes import gmsh_files, gmsh_two_squares
 
 from anglesmooth import io as asio
 from anglesmooth.errors import InvalidMeshError, MeshReadError, MeshWriteError, UnsupportedMeshError
@@ -41,13 +42,7 @@ def _hole_line():
 
 def _two_regions(recombine_right=True):
     """Two unit squares side by side (left triangles, right quads), physical groups."""
-    occ = gmsh.model.occ
-    a = occ.addRectangle(0, 0, 0, 1, 1)
-    b = occ.addRectangle(1, 0, 0, 1, 1)
-    occ.fragment([(2, a)], [(2, b)])
-    occ.synchronize()
-    left = [t for d, t in gmsh.model.getEntities(2) if gmsh.model.occ.getCenterOfMass(2, t)[0] < 1]
-    right = [t for d, t in gmsh.model.getEntities(2) if gmsh.model.occ.getCenterOfMass(2, t)[0] > 1]
+    left, right = gmsh_two_squares()
     gmsh.model.addPhysicalGroup(2, left, 10, name="left")
     gmsh.model.addPhysicalGroup(2, right, 20, name="right")
     bottom = [t for d, t in gmsh.model.getEntities(1) if abs(gmsh.model.occ.getCenterOfMass(1, t)[1]) < 1e-9]
@@ -87,27 +82,7 @@ MODELS = {"hole": _hole_line, "two": _two_regions, "quads": _quads, "order2": _o
 @pytest.fixture(scope="session")
 def msh_files(tmp_path_factory):
     """{(model, variant): path} for every model in MSH 2.2/4.1, ASCII/binary."""
-    root = tmp_path_factory.mktemp("gmsh")
-    out = {}
-    gmsh.initialize(readConfigFiles=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        for name, build in MODELS.items():
-            gmsh.clear()
-            gmsh.option.restoreDefaults()
-            gmsh.option.setNumber("General.Terminal", 0)
-            gmsh.model.add(name)
-            build()
-            gmsh.model.mesh.generate(2)
-            for var, (version, binary) in MSH_VARIANTS.items():
-                gmsh.option.setNumber("Mesh.MshFileVersion", version)
-                gmsh.option.setNumber("Mesh.Binary", binary)
-                path = root / f"{name}_{var}.msh"
-                gmsh.write(str(path))
-                out[name, var] = path
-    finally:
-        gmsh.finalize()
-    return out
+    return gmsh_files(tmp_path_factory.mktemp("gmsh"), MODELS, MSH_VARIANTS)
 
 
 ALL = [(m, v) for m in MODELS for v in MSH_VARIANTS]

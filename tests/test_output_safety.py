@@ -15,7 +15,6 @@ Devices are made with ``mknod`` in the test's own directory, which needs root; C
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import resource
@@ -32,7 +31,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from cli_runner import cli_runner
+from cli_runner import PREFIX, cli_runner, digest, error_line, snapshot
 
 from anglesmooth import _paths, read, smooth, write
 from anglesmooth.cli import cli
@@ -41,41 +40,14 @@ from anglesmooth.generate import random_delaunay
 SRC = str(Path(__file__).resolve().parents[1] / "src")
 ROOT = os.geteuid() == 0
 needs_root = pytest.mark.skipif(not ROOT, reason="mknod and chown need root (CI runs as root)")
-PREFIX = "anglesmooth: error: "
-
-
 def env(**extra) -> dict:
     e = dict(os.environ, PYTHONPATH=SRC + os.pathsep + os.environ.get("PYTHONPATH", ""))
     e.update(extra)
     return e
 
 
-def digest(path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
-def snapshot(d: Path) -> dict:
-    out = {}
-    for p in sorted(d.rglob("*")):
-        if p.is_symlink():
-            out[str(p.relative_to(d))] = "->" + os.readlink(p)
-        elif p.is_file():
-            out[str(p.relative_to(d))] = digest(p)
-        else:
-            out[str(p.relative_to(d))] = stat.S_IFMT(p.lstat().st_mode)
-    return out
-
-
 def invoke(*args, **kwargs):
     return cli_runner().invoke(cli, [str(a) for a in args], **kwargs)
-
-
-def error_line(stderr: str) -> str:
-    lines = [line for line in stderr.splitlines() if line.strip()]
-    assert len(lines) == 1, stderr
-    assert lines[0].startswith(PREFIX), stderr
-    assert "Traceback" not in stderr
-    return lines[0]
 
 
 def run_cli(*args, cwd=None, timeout=120, **kwargs) -> subprocess.CompletedProcess:
@@ -310,7 +282,7 @@ def test_replacing_keeps_owner_group_and_mode_without_setuid(work, monkeypatch):
     out.write_text("old")
     os.chown(out, 1234, 2345)
     os.chmod(out, 0o6750)
-    r = invoke("in.vtu", "out.vtu", "-q", "--json", "r.json", "--force")  # --force: out.vtu exists (issue 14)
+    r = invoke("in.vtu", "out.vtu", "-q", "--json", "r.json")  # out.vtu exists: replaced
     assert r.exit_code == 0, r.stderr
     st = os.stat(out)
     assert (st.st_uid, st.st_gid) == (1234, 2345)
@@ -450,7 +422,7 @@ def test_closed_or_read_only_stderr_keeps_the_exit_codes(work):
     """With stderr closed (or, through a shell wrapper, left open read-only) messages are dropped, codes stay."""
     py = sys.executable
     for redirect in ("2>&-", "2</dev/null"):
-        for cmd, code in ((f"'{py}' -m anglesmooth in.vtu o.vtu -n 1 --force", 0), (f"'{py}' -m anglesmooth check nope.vtu", 3),
+        for cmd, code in ((f"'{py}' -m anglesmooth in.vtu o.vtu -n 1", 0), (f"'{py}' -m anglesmooth check nope.vtu", 3),
                           (f"'{py}' -m anglesmooth in.vtu - --output-format vtu -n 1 -q", 0)):
             p = subprocess.run(["bash", "-c", f"{cmd} {redirect}"], cwd=work, capture_output=True, env=env(),
                                timeout=120)
@@ -532,13 +504,13 @@ def test_sigkill_leaves_a_recognisable_temporary_file_that_the_next_run_names(wo
     assert len(left) == 1 and not (work / "out.vtu").exists()
     old = time.time() - 5
     os.utime(work / left[0], (old, old))
-    p = run_cli("in.vtu", "out.vtu", "-n", "1", cwd=work)  # out.vtu does not exist yet: no --force needed
+    p = run_cli("in.vtu", "out.vtu", "-n", "1", cwd=work)
     assert p.returncode == 0
     notes = [line for line in p.stderr.decode().splitlines() if "interrupted earlier run" in line]
     assert len(notes) == 1 and left[0] in notes[0]
     assert (work / left[0]).exists()  # mentioned, not deleted: another run may own it
     # --quiet silences the note like every other note
-    assert b"interrupted earlier run" not in run_cli("in.vtu", "out.vtu", "-n", "1", "-q", "--force", cwd=work).stderr
+    assert b"interrupted earlier run" not in run_cli("in.vtu", "out.vtu", "-n", "1", "-q", cwd=work).stderr
 
 
 # --------------------------------------------------------------------------- 7. corrupt counts, bounded memory

@@ -152,3 +152,30 @@ def test_signal_during_the_write_keeps_the_old_output(big, tmp_path, sig):
     assert sorted(os.listdir(tmp_path)) == ["in.vtu", "out.vtu"]
     assert out.read_bytes() == b"previous result"
     assert _digest(src) == digest
+
+
+def test_a_signal_while_numba_compiles_is_acted_on_once_it_is_done(monkeypatch):
+    """SIGTERM during the first run's compile was raised inside llvmlite's ctypes callback: printed as
+    'Exception ignored', lost (the run went on), or exit -11. The handler now waits until the compiler's
+    frames are gone (SIGALRM every 50 ms), then raises."""
+    import types
+
+    from anglesmooth.cli import errors as cli_errors
+
+    def frame(filename, back=None):
+        return types.SimpleNamespace(f_code=types.SimpleNamespace(co_filename=filename), f_back=back)
+
+    compiling = frame(f"{os.sep}site-packages{os.sep}llvmlite{os.sep}binding{os.sep}executionengine.py",
+                      frame(f"{os.sep}site-packages{os.sep}numba{os.sep}core{os.sep}compiler.py", frame("driver.py")))
+    armed = []
+    monkeypatch.setattr(cli_errors.signal, "setitimer", lambda which, seconds: armed.append(seconds))
+    monkeypatch.setattr(cli_errors.signal, "signal", lambda sig, handler: None)
+    monkeypatch.setattr(cli_errors, "_PENDING", [])
+    cli_errors.on_signal(signal.SIGTERM, compiling)  # deferred: no exception inside the compiler
+    assert cli_errors._PENDING == [signal.SIGTERM] and armed == [cli_errors._RETRY_S]
+    cli_errors._retry(signal.SIGALRM, compiling)  # still compiling: look again later
+    assert armed == [cli_errors._RETRY_S] * 2
+    with pytest.raises(cli_errors.Terminated):
+        cli_errors._retry(signal.SIGALRM, frame("driver.py"))
+    with pytest.raises(KeyboardInterrupt):
+        cli_errors.on_signal(signal.SIGINT, frame("driver.py"))

@@ -50,8 +50,8 @@ from pathlib import Path
 
 from .errors import AngleSmoothError, MeshWriteError
 
-__all__ = ["OutputConflictError", "Outputs", "Target", "active", "atomic_write", "check_outputs", "mark_closed_std_fds",
-           "resolve_output", "stale_temporaries", "std_fd_closed", "write_all"]
+__all__ = ["OutputConflictError", "Outputs", "Target", "active", "atomic_write", "carries_stdout", "check_outputs",
+           "mark_closed_std_fds", "resolve_output", "stale_temporaries", "std_fd_closed", "write_all"]
 
 STDIO = "-"
 TAG = ".anglesmooth-"
@@ -146,6 +146,11 @@ def _std_fd(path: str) -> int | None:
             return None
         p = os.path.normpath(os.path.join(os.path.dirname(p), link))
     return None
+
+
+def carries_stdout(*paths: str | None) -> bool:
+    """Whether an output path of the command line is stdout: ``-``, ``/dev/stdout``, ``/dev/fd/1`` (or a link to one)."""
+    return any(p is not None and (os.fspath(p) == STDIO or _std_fd(os.fspath(p)) == 1) for p in paths)
 
 
 def _ident(st: os.stat_result) -> tuple[int, int]:

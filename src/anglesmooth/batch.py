@@ -56,6 +56,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .errors import AngleSmoothError
+from .fixing import fixed_mask
 from .filesets import MESH_SUFFIXES, BatchError, find_mesh_files, make_dirs, output_name, plan_outputs
 
 __all__ = [
@@ -141,27 +142,6 @@ def _failure(exc: BaseException) -> tuple[int, str]:
     if isinstance(exc, MemoryError):
         return 3, "out of memory (the mesh is too large for this machine)"
     return 4, f"internal error: {type(exc).__name__}: {exc} (please report it; --debug shows the traceback)"
-
-
-def _fixed_mask(mesh, groups: Sequence[str], nodes: Sequence[int] | None):
-    """The extra fixed nodes of one mesh (an unknown group or a node out of range: exit 2 for this file)."""
-    if not groups and nodes is None:
-        return None
-    import numpy as np
-
-    mask = np.zeros(mesh.n_points, dtype=bool)
-    for name in groups:
-        if name not in mesh.groups:
-            known = ", ".join(sorted(mesh.groups)) or "none (the mesh has no named groups)"
-            raise BatchError(f"--fix-group: no group {name!r} in the mesh; available: {known}")
-        mask[mesh.groups[name]] = True
-    if nodes is not None and len(nodes):
-        idx = np.asarray(nodes, dtype=np.int64)
-        bad = idx[(idx < 0) | (idx >= mesh.n_points)]
-        if bad.size:
-            raise BatchError(f"--fix-nodes: node {int(bad[0])} out of range (the mesh has nodes 0..{mesh.n_points - 1})")
-        mask[idx] = True
-    return mask
 
 
 def _read(path: str, input_format: str | None):
@@ -256,7 +236,7 @@ class _SmoothTask(_Task):
         from .topology import build_topology
 
         mesh = _read(self.path, self.input_format)
-        topo = build_topology(mesh, _fixed_mask(mesh, self.fix_groups, self.fix_nodes))
+        topo = build_topology(mesh, fixed_mask(mesh, self.fix_groups, self.fix_nodes))
         before = summarize(mesh.points, topo)
         result = smooth(mesh, self.method, self.passes, tol=self.tol, guard=self.guard, order=self.order,
                         topology=topo)

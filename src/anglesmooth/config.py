@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from .errors import AngleSmoothError, GateFileError
-from .gates import GATES, _toml_loads, validate_gates
+from .gates import GATES, read_toml, validate_gates
 
 __all__ = ["KEYS", "Config", "ConfigFileError", "discover", "find_config", "load_config", "parse"]
 
@@ -79,14 +79,7 @@ class Config:
 
 
 def _read_toml(path: Path) -> dict:
-    try:
-        return _toml_loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ConfigFileError(f"cannot read configuration '{path}': {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise ConfigFileError(f"configuration '{path}' is not UTF-8 text") from None
-    except ValueError as exc:  # tomllib.TOMLDecodeError
-        raise ConfigFileError(f"configuration '{path}' is not valid TOML: {exc}") from None
+    return read_toml(path, "configuration", ConfigFileError)
 
 
 def _table(path: Path, data: dict) -> dict | None:

@@ -101,6 +101,9 @@ def output_name(path: str, *, output_dir: str | None = None, suffix: str = "", e
     >>> output_name("in/a.msh", suffix="_s")
     'in/a_s.msh'
     """
+    if any(sep and sep in suffix for sep in (os.sep, os.altsep, "/")) or "\0" in suffix:
+        raise BatchError(f"the suffix {suffix!r} (--suffix) is added to each file name and must not contain "
+                         "'/' (put the outputs in another directory with --output-dir)")
     rel = PurePath(relative if relative is not None else os.path.basename(path))
     name = rel.stem + suffix + (extension if extension is not None else rel.suffix)
     if output_dir is None:

@@ -48,10 +48,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .errors import GateFileError
+from .errors import AngleSmoothError, GateFileError
 
 __all__ = ["GATES", "SAFE_DEFAULTS", "UNITS", "Gate", "evaluate", "load_gate_file", "resolve_thresholds",
-           "validate_gates", "worst_cell"]
+           "read_toml", "validate_gates", "worst_cell"]
 
 #: Gate name -> (summary value description, True if the value must be >= the threshold).
 GATES: dict[str, tuple[str, bool]] = {
@@ -225,6 +225,20 @@ def _toml_loads(text: str) -> dict:
     return tomllib.loads(text)
 
 
+def read_toml(path: Path, what: str, error: type[AngleSmoothError] = GateFileError) -> dict:
+    """The parsed TOML file ``path``; ``error(...)`` naming ``what`` (``gate file``, ``configuration``) and the
+    path when it cannot be read, is not UTF-8 or is not TOML.  The one TOML reader of gate and configuration files.
+    """
+    try:
+        return _toml_loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise error(f"cannot read {what} '{path}': {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise error(f"{what} '{path}' is not UTF-8 text") from None
+    except ValueError as exc:  # tomllib.TOMLDecodeError
+        raise error(f"{what} '{path}' is not valid TOML: {exc}") from None
+
+
 def load_gate_file(path: str | Path) -> dict[str, float]:
     """Read thresholds from a TOML gate file.
 
@@ -233,14 +247,7 @@ def load_gate_file(path: str | Path) -> dict[str, float]:
     not a number (the command line reports it as a usage error, exit 2).
     """
     path = Path(path)
-    try:
-        data = _toml_loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise GateFileError(f"cannot read gate file '{path}': {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise GateFileError(f"gate file '{path}' is not UTF-8 text") from None
-    except ValueError as exc:  # tomllib.TOMLDecodeError
-        raise GateFileError(f"gate file '{path}' is not valid TOML: {exc}") from None
+    data = read_toml(path, "gate file")
     tool = data.get("tool")
     tool = tool.get("anglesmooth") if isinstance(tool, dict) else None
     if tool is not None and not isinstance(tool, dict):

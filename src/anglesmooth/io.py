@@ -126,6 +126,26 @@ def _reason(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}"
 
 
+def _plain_reason(exc: BaseException) -> str:
+    """A reader's exception in words a user can act on, the technical reason after a colon.
+
+    meshio's readers fail on corrupt files with numpy's own errors (an ``IndexError`` for a cell
+    naming a node the file does not define, a ``ValueError`` from ``reshape`` for a file cut short);
+    those alone say nothing about the file.
+    """
+    if not str(exc).strip():
+        return "truncated or corrupt"
+    tech = _reason(exc)
+    if isinstance(exc, (IndexError, KeyError)):
+        return f"a cell refers to a node the file does not define, or node numbers repeat; {tech}"
+    text = str(exc)
+    if isinstance(exc, (ValueError, EOFError)) and any(
+        w in text for w in ("reshape", "buffer", "unpack", "could not convert", "invalid literal", "not enough values")
+    ):
+        return f"truncated or corrupt; {tech}"
+    return tech
+
+
 # ---------------------------------------------------------------------------
 # read
 # ---------------------------------------------------------------------------
@@ -231,7 +251,7 @@ def _read_meshio(p: Path, fmt: str | None, where: str):
             cause = e
             if isinstance(e, meshio.ReadError) and not str(e).strip() and e.__context__ is not None:
                 cause = e.__context__
-            detail = _reason(cause) if str(cause).strip() else "truncated or corrupt"
+            detail = _plain_reason(cause)
             reasons.append(f"not a valid {name} file ({detail})")
     raise MeshReadError(f"{where}: {'; '.join(reasons) if len(reasons) < 3 else reasons[0] + '; ...'}")
 

@@ -105,10 +105,11 @@ def to_mesh2d(m, src: Source, *, owned: bool = False) -> Mesh2D:
         if nc and (data.min() < 0 or data.max() >= n):
             i = int(np.flatnonzero(((data < 0) | (data >= n)).any(axis=1))[0])
             bad = data[i][(data[i] < 0) | (data[i] >= n)][0]
-            raise InvalidMeshError(
-                f"cell {cid + i} ({block.type} {i} of block {b}) references node {int(bad)}, "
-                f"but the mesh has {n} nodes"
+            what = (
+                f"node {int(bad)}, a node the file does not define (in a gmsh file: a node tag missing or repeated)"
+                if bad < 0 else f"node {int(bad)}, but the mesh has {n} nodes"
             )
+            raise InvalidMeshError(f"cell {cid + i} ({block.type} {i} of block {b}) references {what}")
         data = data.astype(np.int64, copy=not owned)
         if is_tri or is_quad:
             k = 3 if is_tri else 4

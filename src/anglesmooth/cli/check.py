@@ -6,14 +6,14 @@ import sys
 
 import click
 
-from .. import report
-from ..batch import FileResult, check_file, check_files
+from .. import _paths, report
+from ..batch import FileResult, check_files
 from . import formats
 from .errors import Usage, error, handle_errors
-from .many import exclude_option, executor, expand_inputs, jobs_option, scheduler_option, worst_exit
+from .many import exclude_option, executor, expand_inputs, finish, jobs_option, scheduler_option, worst_exit
 from .meshfiles import STDIO, display, plan_outputs, read_mesh
 from .options import debug_option, gate_options, input_format_option, json_option, quiet_option
-from .outputs import emit_json, gate_thresholds, make_console, note_stale, plain
+from .outputs import gate_thresholds, make_console, note_stale, plain
 
 
 @click.command("check")
@@ -60,17 +60,11 @@ def check_cmd(inputs, input_format, exclude, jobs, scheduler, json_path, report_
     elif len(entries) > 1:
         console.print(report.files_table(entries, with_gates=bool(thresholds)))
     outcomes = [formats.outcome(e) for e in entries]
-    formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=json_path == STDIO)
+    formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=_paths.carries_stdout(json_path, junit_path))
     errors = any(e["error"] for e in entries)
     passed = not errors and all(e["passed"] for e in entries)
-    with outs:
-        emit_json(json_path, report.check_json(entries, passed))
-        if junit_path:
-            formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth check"))
-        outs.commit()
-    code = worst_exit(results, exit_zero)
-    if code:
-        raise click.exceptions.Exit(code)
+    finish(outs, json_path, report.check_json(entries, passed), junit_path, outcomes, "anglesmooth check",
+           worst_exit(results, exit_zero))
 
 
 def _entry(result: FileResult, debug: bool) -> tuple[dict, list[str]]:
@@ -81,8 +75,3 @@ def _entry(result: FileResult, debug: bool) -> tuple[dict, list[str]]:
         error(result.error_line)
     return result.entry, list(result.messages)
 
-
-def check_one(path: str, input_format, thresholds: dict, debug: bool) -> tuple[dict, list[str]]:
-    """Read and measure one file: its JSON entry and its failed-gate lines (an unreadable file: an error entry)."""
-    return _entry(check_file(path, input_format=input_format, thresholds=thresholds, reader=read_mesh,
-                             name=display(path)), debug)

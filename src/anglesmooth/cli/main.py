@@ -132,6 +132,8 @@ def main(argv: list[str] | None = None) -> None:
     """
     with contextlib.suppress(ValueError):  # not in the main thread
         signal.signal(signal.SIGTERM, on_sigterm)
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not when SIGINT is ignored
+            signal.signal(signal.SIGINT, on_sigterm)
     prepare_std_streams()
     try:
         code = cli.main(args=argv, prog_name="anglesmooth", standalone_mode=False)

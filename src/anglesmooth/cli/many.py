@@ -20,12 +20,12 @@ from pathlib import Path
 import click
 from rich.table import Table
 
-from .. import batch, filesets, report
+from .. import _paths, batch, filesets, report
 from ..errors import AngleSmoothError
 from ..gates import Gate
 from . import formats
 from .errors import EXIT_GATE, Usage, error
-from .meshfiles import STDIO, _suffix, plan_outputs
+from .meshfiles import STDIO, _suffix, check_in_place_format, plan_outputs
 from .outputs import emit_json, plain, warn_invalid
 
 DASK_EXTRA = "pip install 'anglesmooth[dask]'"
@@ -113,8 +113,8 @@ def _outputs(found, *, output_dir, suffix, output_format, in_place) -> list[str]
     if in_place:
         if output_dir is not None or suffix:
             raise Usage("--in-place rewrites each INPUT; do not give --output-dir or --suffix")
-        if output_format:
-            raise Usage("--in-place keeps each file's format; do not give --output-format")
+        for p, _ in found:
+            check_in_place_format(p, None, output_format)
         return [p for p, _ in found]
     if output_dir is None and not suffix:
         raise Usage("several INPUTs need --output-dir DIR, --suffix SUFFIX or --in-place "
@@ -164,6 +164,19 @@ def worst_exit(results, exit_zero: bool) -> int:
     return max(codes, default=0)
 
 
+def finish(outs, json_path: str | None, document: dict, junit_path: str | None, outcomes, suite: str,
+           code: int) -> None:
+    """The tail of a many-file run: the JSON report and the JUnit XML staged in ``outs`` and committed together,
+    then exit ``code`` (nothing when 0)."""
+    with outs:
+        emit_json(json_path, document)
+        if junit_path:
+            formats.stage_text(junit_path, formats.junit_xml(outcomes, suite))
+        outs.commit()
+    if code:
+        raise click.exceptions.Exit(code)
+
+
 def _outcome(r: batch.FileResult) -> formats.Outcome:
     return formats.Outcome(r.input if r.error is not None else r.output, [Gate(**g) for g in r.gates], r.error)
 
@@ -211,12 +224,6 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
     console.print(summary_table(results, bool(thresholds), elapsed))
     outcomes = [_outcome(r) for r in results]
     if report_format != "table":
-        formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=json_path == STDIO)
-    with reports:
-        emit_json(json_path, files_json(results, elapsed))
-        if junit_path:
-            formats.stage_text(junit_path, formats.junit_xml(outcomes, "anglesmooth smooth"))
-        reports.commit()
-    code = worst_exit(results, exit_zero)
-    if code:
-        raise click.exceptions.Exit(code)
+        formats.report(report_format, outcomes, lambda text: plain(console, text), data_on_stdout=_paths.carries_stdout(json_path, junit_path))
+    finish(reports, json_path, files_json(results, elapsed), junit_path, outcomes, "anglesmooth smooth",
+           worst_exit(results, exit_zero))

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import os
 import sys
 import tempfile
 from pathlib import Path
@@ -41,6 +40,28 @@ def format_name(name: str | None, option: str) -> str | None:
         return resolve(name)
     except UnknownFormatError as exc:
         raise Usage(f"{option}: {exc}") from None
+
+
+def _family(fmt: str | None) -> str | None:
+    """A format with its versions taken as one (gmsh22, gmsh41 -> gmsh)."""
+    return "gmsh" if fmt and fmt.startswith("gmsh") else fmt
+
+
+def check_in_place_format(path: str, input_format: str | None, output_format: str | None) -> None:
+    """--in-place rewrites a file in its own format: an --output-format (e.g. from a configuration file) of
+    another format would put that format under the input's name and lose the input (a usage error)."""
+    if not output_format:
+        return
+    from .. import io as mesh_io
+
+    wanted = format_name(output_format, "--output-format")
+    try:
+        own = format_name(input_format, "--input-format") if input_format else mesh_io.output_format(path)
+    except AngleSmoothError:
+        own = None
+    if _family(own) != _family(wanted):
+        raise Usage(f"--in-place keeps the format of '{path}' ({own or 'unknown'}); --output-format {wanted} "
+                    "would write another format under its name")
 
 
 def _binary(stream):
@@ -122,6 +143,7 @@ def check_paths(input, output, *, force, in_place, input_format, output_format, 
             raise Usage("--in-place writes back to INPUT; do not give an OUTPUT")
         if input == STDIO:
             raise Usage("--in-place needs an INPUT file, not '-'")
+        check_in_place_format(input, input_format, output_format)
         output = input
     if output is None:
         raise Usage("missing OUTPUT (a file, '-' for stdout, or --in-place to overwrite INPUT)")
@@ -131,41 +153,14 @@ def check_paths(input, output, *, force, in_place, input_format, output_format, 
         raise Usage("writing to stdout ('-') needs --output-format (e.g. --output-format vtu)")
     if output == STDIO and json_path == STDIO:
         raise Usage("OUTPUT '-' and --json - cannot both use stdout")
-    in_fmt = format_name(input_format, "--input-format")
-    out_fmt = format_name(output_format, "--output-format")
+    format_name(input_format, "--input-format")  # an unknown name is a usage error before any work
+    format_name(output_format, "--output-format")
+    # an existing OUTPUT is replaced (atomically, see _paths), as gmsh -o, meshio convert, cp and sort -o do;
+    # only the input itself (the same file by path, symlink or hard link) needs --force or --in-place
     outs = plan_outputs({"OUTPUT": output, "--json": json_path, "--plot": plot, "--junit-xml": junit_path},
                         [("INPUT", input), ("--fix-nodes", fix_nodes), ("--gate-file", gate_file)],
                         may_replace_input=("OUTPUT",) if force or in_place else ())
-    # after the collision checks (an OUTPUT that is an input is reported as such): the glob accident
-    if output != STDIO and not (force or in_place) and os.path.isfile(output) and not _same_file(input, output):
-        kind = _same_kind(input, in_fmt, output, out_fmt)
-        if kind:
-            raise Usage(f"OUTPUT '{output}' exists and is a {kind} file like the input (two inputs from a shell "
-                        f"glob?); pass --force to overwrite it")
     return output, outs
-
-
-def _family(fmt: str | None) -> str | None:
-    return "gmsh" if fmt and fmt.startswith("gmsh") else fmt
-
-
-def _same_kind(input: str, in_fmt: str | None, output: str, out_fmt: str | None) -> str | None:
-    """The format name when the existing OUTPUT has the input's format (as their names tell), else None."""
-    from .. import io as mesh_io
-
-    try:
-        a = _family(in_fmt or (mesh_io.output_format(input) if input != STDIO else None))
-        b = _family(out_fmt or mesh_io.output_format(output))
-    except AngleSmoothError:
-        return None
-    return a if a is not None and a == b else None
-
-
-def _same_file(a: str, b: str) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return False
 
 
 def plan_outputs(outputs: dict, inputs: list, may_replace_input=()) -> _paths.Outputs:
@@ -224,39 +219,3 @@ def fix_node_indices(mesh, numbers: np.ndarray, numbering: str) -> np.ndarray:
         raise Usage(f"--fix-nodes: gmsh node tag {bad} is not in the mesh (--node-numbering gmsh: 1-based tags "
                     f"{int(tags.min())}..{int(tags.max())})")
     return order[pos]
-
-
-def _group_nodes(mesh, name: str) -> np.ndarray:
-    """A group by name, by gmsh physical number ('11') or by dim:number ('2:11')."""
-    if name in mesh.groups:
-        return mesh.groups[name]
-    physical = getattr(mesh, "physical", {}) or {}
-    text = name.strip()
-    if text.isdigit():
-        hits = [k for k in physical if k[1] == int(text)]
-        if len(hits) == 1:
-            return physical[hits[0]]
-        if len(hits) > 1:
-            choices = " or ".join(f"{d}:{t}" for d, t in sorted(hits))
-            raise Usage(f"--fix-group: physical number {text} exists in several dimensions; write {choices}")
-    elif text.count(":") == 1 and all(part.strip().isdigit() for part in text.split(":")):
-        d, t = (int(part) for part in text.split(":"))
-        if (d, t) in physical:
-            return physical[(d, t)]
-    names = ", ".join(repr(k) for k in sorted(mesh.groups)) or "none"
-    numbers = ", ".join(f"{d}:{t}" for d, t in sorted(physical)) or "none"
-    raise Usage(f"--fix-group: no group {name!r} in the mesh; names: {names}; physical numbers (dim:number): {numbers}")
-
-
-def extra_fixed(mesh, groups: tuple[str, ...], nodes: np.ndarray | None) -> np.ndarray | None:
-    if not groups and nodes is None:
-        return None
-    mask = np.zeros(mesh.n_points, dtype=bool)
-    for name in groups:
-        mask[_group_nodes(mesh, name)] = True
-    if nodes is not None and nodes.size:
-        bad = nodes[(nodes < 0) | (nodes >= mesh.n_points)]
-        if bad.size:
-            raise Usage(f"--fix-nodes: node {int(bad[0])} out of range (the mesh has nodes 0..{mesh.n_points - 1})")
-        mask[nodes] = True
-    return mask

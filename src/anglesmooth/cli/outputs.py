@@ -13,7 +13,7 @@ from rich.markup import escape
 
 from .. import _paths, report
 from ..errors import GateFileError
-from ..gates import Gate, resolve_thresholds
+from ..gates import resolve_thresholds
 from ..smoothers._fast import would_help
 from .errors import Usage
 from .meshfiles import STDIO
@@ -45,16 +45,6 @@ def gate_thresholds(gate_opts: dict, safe: bool = False) -> tuple[dict, bool]:
         return resolve_thresholds(gate_opts, gate_file, base=base, safe=safe), exit_zero
     except GateFileError as exc:
         raise Usage(str(exc)) from None
-
-
-def report_gates(console: Console, name: str, gates: list[Gate]) -> bool:
-    """Print one line per failed gate (even with --quiet: it explains exit 1); return whether all passed."""
-    failed = [g for g in gates if not g.passed]
-    for g in failed:
-        click.echo(g.message(name), err=True)
-    if gates and not failed:
-        plain(console, f"{name}: all {len(gates)} gates passed")
-    return not failed
 
 
 def emit_json(json_path: str | None, document: dict) -> None:

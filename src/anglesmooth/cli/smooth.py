@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import os
+
 import click
 
-from .. import report
+from .. import _paths, report
 from ..driver import smooth as run_smooth
+from ..errors import MeshReadError
+from ..fixing import fixed_mask
 from ..gates import evaluate
 from ..quality import summarize
 from ..smoothers import SMOOTHERS
@@ -15,12 +19,17 @@ from ..topology import build_topology
 from . import formats
 from .errors import EXIT_GATE, Usage, handle_errors
 from .many import jobs_option, scheduler_option, smooth_many, wants_many
-from .meshfiles import (STDIO, check_output, check_paths, display, extra_fixed, fix_node_indices, read_fix_nodes,
+from .meshfiles import (STDIO, check_output, check_paths, display, fix_node_indices, read_fix_nodes,
                         read_mesh, write_mesh)
-from .options import (binary_option, debug_option, gate_options, input_format_option, json_option,
-                      no_guard_option, node_numbering_option, order_option, output_format_option, quiet_option)
+from .options import (FiniteFloat, binary_option, debug_option, gate_options, input_format_option, json_option,
+                      no_guard_option, node_numbering_option, order_option, output_format_option,
+                      quiet_option)
 from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, note_stale, plain,
                       progress_bar, warn_invalid)
+
+
+#: The other commands' names: the INPUT of an implied ``smooth`` when options come before the command.
+COMMANDS = ("check", "compare", "schema", "smooth")
 
 
 @click.command("smooth")
@@ -30,7 +39,7 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
 @click.option("--method", "-m", type=click.Choice(list(SMOOTHERS)), default="angle", show_default=True,
               help="Smoothing method (from the registry).")
 @click.option("--passes", "-n", type=click.IntRange(min=0), default=10, show_default=True, help="Maximum passes.")
-@click.option("--tol", type=click.FloatRange(min=0), metavar="T",
+@click.option("--tol", type=FiniteFloat(min=0), metavar="T",
               help="Stop once a pass moves no node by more than T x the mean edge length.")
 @no_guard_option
 @order_option
@@ -42,7 +51,7 @@ from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_conso
                    "--node-numbering gmsh.")
 @node_numbering_option
 @click.option("--force", is_flag=True,
-              help="Allow OUTPUT to be the input file, or an existing file of the input's format (see above).")
+              help="Allow OUTPUT to be the input file (a path, symlink or hard link to it); see --in-place.")
 @click.option("--in-place", is_flag=True, help="Overwrite INPUT (give no OUTPUT).")
 @input_format_option
 @output_format_option
@@ -71,14 +80,18 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
                report_format, junit_path, plot, progress, threads, quiet, debug, **gate_opts) -> None:
     """Smooth INPUT and write OUTPUT ('-' for stdin/stdout); gates apply to the result, after writing it.
 
-    An existing OUTPUT of the input's format (by its extension: 'anglesmooth a.msh b.msh' where b.msh exists,
-    as a shell glob gives) is taken for another input and not overwritten without --force (exit 2); an existing
-    OUTPUT of another format (a previous result, e.g. out.vtu from in.msh) is replaced.
+    An existing OUTPUT is replaced (atomically, keeping its owner and mode), as gmsh -o and cp do; OUTPUT
+    may be the input file itself only with --force or --in-place (exit 2 otherwise).  Two mesh files alone
+    mean INPUT OUTPUT, also when a shell glob gives them ('anglesmooth *.msh'): give several files with
+    --output-dir or --suffix.
 
     Several INPUTs (files, directories, globs) with --output-dir DIR, --suffix or --in-place smooth each
     file (--jobs N in parallel processes, --scheduler on a Dask cluster) and end with a summary table.
     """
     console = make_console(quiet)
+    if input in COMMANDS and not os.path.lexists(input):  # 'anglesmooth --quiet check a.msh': options came first
+        raise Usage(f"no mesh file '{input}': to run the {input} command, give the options after its name "
+                    f"('anglesmooth {input} ARGS... [OPTIONS]')")
     if wants_many(input, output, more, output_dir=output_dir, suffix=suffix, jobs=jobs, scheduler=scheduler,
                   in_place=in_place):
         one_file_only = {"--node-numbering gmsh": node_numbering != "index", "--binary/--ascii": binary is not None,
@@ -95,6 +108,9 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
                            method=method, passes=passes, tol=tol, guard=not no_guard, order=order,
                            fix_groups=fix_group, input_format=input_format)
     formats.check_junit_path(junit_path)
+    if output is not None and input != STDIO and os.path.isdir(input):  # before OUTPUT's checks: the cause
+        raise MeshReadError(f"cannot read '{input}': is a directory (to smooth every mesh file in it, give "
+                            f"--output-dir DIR: anglesmooth smooth '{input}' --output-dir DIR)")
     output, outs = check_paths(input, output, force=force, in_place=in_place, input_format=input_format,
                                output_format=output_format, json_path=json_path, plot=plot, fix_nodes=fix_nodes,
                                gate_file=gate_opts.get("gate_file"), junit_path=junit_path)
@@ -114,7 +130,7 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
         mesh = read_mesh(input, input_format)
         check_output(mesh, output, output_format, binary)  # the output format can hold the mesh: fail before smoothing
         user_nodes = fix_node_indices(mesh, user_nodes, node_numbering) if user_nodes is not None else None
-        topo = build_topology(mesh, extra_fixed(mesh, fix_group, user_nodes))
+        topo = build_topology(mesh, fixed_mask(mesh, fix_group, user_nodes))
         before = summarize(mesh.points, topo)
         warn_invalid(console, name, before)
         note_fast(console, topo, passes)
@@ -152,7 +168,7 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
     console.print(report.smooth_table(before, after, run, title=f"{name} -> {out_name}: {method}, {guard}, {order}"))
     if gates:  # without gates there is nothing to report
         formats.report(report_format, outcomes, lambda text: plain(console, text),
-                       data_on_stdout=STDIO in (output, json_path))
+                       data_on_stdout=_paths.carries_stdout(output, json_path, junit_path, plot))
     passed = all(g.passed for g in gates)
     if not passed and not exit_zero:
         raise click.exceptions.Exit(EXIT_GATE)
