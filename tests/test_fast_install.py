@@ -302,3 +302,23 @@ def test_warm_up_compiles_what_a_smoothing_run_calls(tmp_path):
     )
     before, after = json.loads(_py(code, _env(tmp_path, ANGLESMOOTH_KERNEL="numba"), tmp_path).stdout)
     assert sorted(before) == ["ring_mean", "score"] and after == before
+
+
+def test_a_default_run_compiles_one_signature_per_kernel_the_one_warm_up_compiles(tmp_path):
+    """Every argument the dispatch passes has one type whatever the caller gave (a scalar or per-node
+    acceptance threshold, read-only or not: a read-only ``good`` compiled ``angle_choose`` twice),
+    so warm_up's tiny mesh leaves a default ``angle`` run nothing to compile."""
+    code = (
+        "import json\n"
+        "from anglesmooth import generate as gen, smooth\n"
+        "from anglesmooth.smoothers import _fast\n"
+        "names = list(_fast.METHOD_KERNELS['angle'])\n"
+        "_fast.warm_up(names)\n"
+        "before = sorted(_fast.jit_stats()['compiled'])\n"
+        "smooth(gen.random_delaunay(3000, 3), 'angle', passes=2)\n"
+        "k = _fast._k()\n"
+        "print(json.dumps([names, before, sorted(_fast.jit_stats()['compiled']),"
+        " [len(getattr(k, n).overloads) for n in names]]))\n"
+    )
+    names, before, after, n_sigs = json.loads(_py(code, _env(tmp_path, ANGLESMOOTH_KERNEL="numba"), tmp_path).stdout)
+    assert before == sorted(names) and after == before and n_sigs == [1] * len(names)

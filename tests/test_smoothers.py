@@ -253,8 +253,14 @@ def test_vectorized_matches_per_node_reference(method, guard, gen_name):
 @pytest.mark.parametrize("free_corners", [((2.45, 0.02), (2.55, 0.021)), ((2.4, 0.03), (2.6, 0.02))])
 def test_stuck_nodes_take_the_guarded_laplacian_move_as_the_reference_does(free_corners, monkeypatch):
     """A quad flattened onto the boundary with its free corners almost touching: every full or half
-    move of either is invalid, so the default takes the halved Laplacian move (stage 3)."""
+    move of either is invalid, so the default takes the halved Laplacian move (stage 3).
+
+    The numpy kernels are pinned: the call count below spies on their stage 3 (``first_valid``),
+    which the compiled ``angle_choose`` does inside the kernel (``ANGLESMOOTH_KERNEL=numba`` would
+    bypass the spy); the compiled stage 3 is checked against numpy in tests/test_kernels.py."""
     import anglesmooth.smoothers.angle as angle_mod
+
+    monkeypatch.setenv("ANGLESMOOTH_KERNEL", "numpy")
 
     m = generate.structured_quads(5, 4)
     p = m.points.copy()

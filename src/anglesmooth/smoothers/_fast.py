@@ -97,9 +97,12 @@ MIN_CHUNK = 8192
 #: Chunks per thread: a thread on a busy core takes fewer of them instead of holding the others up.
 CHUNKS_PER_THREAD = 4
 
-#: Compile time of each kernel, s (serial, cold cache, this 2-core VM): only for the estimate that
-#: :func:`compile_estimate` gives before a run; unknown kernels count :data:`_DEFAULT_COMPILE_S`.
-COMPILE_S = {"angle_choose": 3.2, "compass": 2.6, "score": 0.7, "ring_mean": 0.3, "angle_target": 0.6}
+#: Compile time of each kernel, s (serial, cold cache, this 2-core VM at load 2, CPU time ~ wall):
+#: only for the estimate that :func:`compile_estimate` gives before a run; unknown kernels count
+#: :data:`_DEFAULT_COMPILE_S`.  ``_node_score`` is compiled once per process, by the first kernel
+#: that calls it (``angle_choose`` in a default run: 2.1 s with it, ``compass`` then 0.7 s); each
+#: figure here counts it, so an estimate over several kernels is on the safe side.
+COMPILE_S = {"angle_choose": 2.2, "compass": 1.5, "score": 0.7, "ring_mean": 0.3, "angle_target": 0.6}
 _DEFAULT_COMPILE_S = 2.0
 #: The kernels a method's default run calls (for :func:`compile_estimate`; a hint, not a contract).
 METHOD_KERNELS = {
@@ -453,12 +456,14 @@ def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, ne
     stage 2 takes the good-enough candidate nearest the angle position (see :func:`.angle.step`).
     """
     rp, sp, tp, qp = _csr(topo)
-    good = np.ascontiguousarray(np.broadcast_to(np.asarray(good, dtype=np.float64), (blk.size,)))
+    # always fresh writeable copies: a broadcast view is read-only, another compiled signature (a
+    # scalar ``good``, as in warm_up, copied, and a per-node one did not: two compiles)
+    good = np.array(np.broadcast_to(np.asarray(good, dtype=np.float64), (blk.size,)))
     return _run(
         _k().angle_choose,
         points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,
         rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, good, _floors(floors),
-        np.zeros(0, np.bool_) if keep is None else np.ascontiguousarray(keep, dtype=np.bool_), bool(nearest),
+        np.zeros(0, np.bool_) if keep is None else np.array(keep, dtype=np.bool_), bool(nearest),
     )
 
 

@@ -29,6 +29,12 @@ from ._local import INVALID, INVERTED_WEIGHT
 # reassociation or fused multiply-adds and the same rounding as numpy
 _OPTS = {"cache": True, "error_model": "numpy", "parallel": False, "nogil": True}
 _TWO_PI = 2 * np.pi
+# ``_node_score`` is an ordinary compiled function (the same error model), called, not inlined by
+# numba: ``inline="always"`` typed and optimized a fresh copy of it at each of its four call sites in
+# ``angle_choose`` and three in ``compass`` (a cold default run compiled 13-21 s on the loaded 2-core
+# VM, 4.4-6 s so).  It compiles once per process and is stored inside each cached kernel that calls
+# it.  The small helpers stay inlined.
+_helper = njit(error_model="numpy", nogil=True)
 
 
 def _kernel(fn):
@@ -40,7 +46,7 @@ def _kernel(fn):
         return njit(**{**_OPTS, "cache": False})(fn)
 
 
-@njit(inline="always")
+@_helper
 def _node_score(pts, px, py, f, tp, tv, qp, qv, fl):
     """``BlockGeometry.score`` for one node (free index ``f``) at (px, py): ``_tri_chunk`` / ``_quad_chunk``.
 
