@@ -1,0 +1,81 @@
+"""Edge vectors, corner cross products and corner angles of one cell type, computed once.
+
+The shared base of :mod:`.angles`, :mod:`.validity`, :mod:`.verdict` and
+:mod:`.summary`; arrays are (k, n): row k is corner / edge k of every cell.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+_R2D = 180.0 / np.pi
+_BELOW_360 = np.nextafter(360.0, 0.0)
+
+
+class _Corners(NamedTuple):
+    """Edge vectors and corner quantities of one cell type, computed once.
+
+    Arrays are (k, n): row k is corner / edge k of every cell, so that all the
+    arithmetic runs on contiguous rows (the public functions return (n, k)).
+    """
+
+    length: np.ndarray  # (k, n) length of edge k: node k -> node k+1
+    cross: np.ndarray  # (k, n) cross(next - v, prev - v) at corner k
+    angle: np.ndarray  # (k, n) corner angle in degrees, [0, 360)
+
+
+def _edges(points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(ex, ey), each (k, n): e_k = p_{k+1} - p_k for (n, k) cells."""
+    pts = np.asarray(points, dtype=np.float64)
+    index = np.ascontiguousarray(cells.T)  # (k, n); a gather takes the layout of its index
+    out = []
+    for coord in (pts[:, 0], pts[:, 1]):
+        c = coord[index]
+        e = np.empty_like(c)
+        np.subtract(c[1:], c[:-1], out=e[:-1])
+        np.subtract(c[0], c[-1], out=e[-1])
+        out.append(e)
+    return out[0], out[1]
+
+
+def _cross(ex: np.ndarray, ey: np.ndarray) -> np.ndarray:
+    """cross(next - v, prev - v) = cross(e_{k-1}, e_k) at every corner k, (k, n)."""
+    out = np.empty_like(ex)
+    for k in range(ex.shape[0]):
+        j = k - 1  # e_{k-1}, wrapping to the last edge
+        np.multiply(ex[j], ey[k], out=out[k])
+        out[k] -= ey[j] * ex[k]
+    return out
+
+
+def _corners(points: np.ndarray, cells: np.ndarray) -> _Corners:
+    """Edge lengths, corner cross products and corner angles of (n, k) ccw cells, as (k, n) arrays."""
+    ex, ey = _edges(points, cells)
+    # at corner k: a = next - v = e_k, b = prev - v = -e_{k-1}
+    cross = _cross(ex, ey)  # cross(a, b) = cross(e_{k-1}, e_k)
+    dot = np.empty_like(ex)  # dot(a, b) = -(e_k . e_{k-1})
+    for k in range(ex.shape[0]):
+        np.multiply(ex[k], ex[k - 1], out=dot[k])
+        dot[k] += ey[k] * ey[k - 1]
+    np.negative(dot, out=dot)
+    ang = np.arctan2(cross, dot, out=dot)
+    ang *= _R2D
+    np.add(ang, 360.0, out=ang, where=ang < 0)
+    np.minimum(ang, _BELOW_360, out=ang)  # -tiny + 360 rounds to 360
+    length = np.hypot(ex, ey, out=ex)
+    # a corner with a zero-length edge has no angle: call it 0 (atan2(0, -0) would say 180)
+    zero = length == 0
+    zero |= np.roll(zero, 1, axis=0)
+    ang[zero] = 0.0
+    return _Corners(length, cross, ang)
+
+
+def _tri_area(c: _Corners) -> np.ndarray:
+    """Signed triangle areas from the cross product at corner 0.
+
+    Bit-identical to :func:`anglesmooth.topology.signed_areas`: cross(p0 - p2,
+    p1 - p0) rounds like cross(p1 - p0, p2 - p0) (exact negations, same products).
+    """
+    return 0.5 * c.cross[0]
