@@ -130,3 +130,32 @@ def test_input_floors_in_chunks_equal_the_whole_arrays(name, monkeypatch):
     if whole.active:
         assert whole.t_area2.any() or whole.q_area2.any()
         assert all(np.shares_memory(col, whole.packed) for col in whole[:6])
+
+
+@pytest.mark.parametrize("name", ["mixed", "paper-mixed", "distorted", "layered-mixed"])
+def test_signed_areas_from_complex_gathers_equal_the_column_formula(name, monkeypatch):
+    """signed_areas gathers x and y of a node together (complex128) in chunks of cells; its values are
+    the bits of the x/y column formula, on tangled points with zero and negative areas too, and the
+    column formula still serves points of another dtype or width."""
+    from anglesmooth.topology import orient
+
+    mesh = _layered_mixed() if name == "layered-mixed" else MESHES[name]()
+    rng = np.random.default_rng(3)
+    pts = mesh.points + rng.normal(scale=0.3, size=mesh.points.shape)
+    tri, quad = mesh.triangles.astype(np.int32), mesh.quads
+    for cells in (tri, quad):  # a collapsed cell of each kind: an exact zero
+        if cells.shape[0]:
+            pts[cells[0]] = pts[cells[0, 0]]
+    empty = np.empty(0)
+    ref = orient._signed_areas_columns(pts, tri, quad, np.empty(tri.shape[0] + quad.shape[0]))
+    assert (ref == 0).any() and (ref != 0).any()
+    monkeypatch.setattr(orient, "CHUNK", 3)
+    for got in (orient.signed_areas(pts, tri, quad), orient.signed_areas(pts, tri[:0], quad),
+                orient.signed_areas(pts, tri, quad[:0])):
+        want = np.concatenate([ref[: tri.shape[0]] if got.size != quad.shape[0] else empty,
+                               ref[tri.shape[0] :] if got.size != tri.shape[0] else empty])
+        assert got.dtype == np.float64 and np.array_equal(got.view(np.int64), want.view(np.int64))
+    wide = np.c_[pts, np.ones(len(pts))]  # (N, 3): the column formula
+    assert np.array_equal(orient.signed_areas(wide, tri, quad).view(np.int64), ref.view(np.int64))
+    single = orient.signed_areas(pts.astype(np.float32), tri, quad)
+    assert single.dtype == np.float64 and np.allclose(single, ref, rtol=1e-4, atol=1e-4)

@@ -9,6 +9,10 @@ from ._keys import _edge_cell, _HalfEdges
 __all__ = ["signed_areas"]
 
 
+#: Cells per chunk of :func:`signed_areas` (its gathers and products stay in the caches).
+CHUNK = 1 << 16
+
+
 def signed_areas(points: np.ndarray, tri: np.ndarray, quad: np.ndarray) -> np.ndarray:
     """Signed areas of triangles then quads (shoelace; positive when counter-clockwise).
 
@@ -17,6 +21,33 @@ def signed_areas(points: np.ndarray, tri: np.ndarray, quad: np.ndarray) -> np.nd
     [0.5]
     """
     out = np.empty(tri.shape[0] + quad.shape[0])
+    points = np.asarray(points)
+    if points.dtype != np.float64 or points.ndim != 2 or points.shape[1] != 2:
+        return _signed_areas_columns(points, tri, quad, out)
+    # one complex128 gather fetches x and y of a node together (one cache line, not two: the nodes of
+    # a cell are anywhere in memory); complex subtraction is the two real ones, so the values are the
+    # same bits as from the x and y columns.  Intp indices: numpy's int32 fancy indexing is 2x slower.
+    z = np.ascontiguousarray(points).view(np.complex128).ravel()
+    for cells, part in ((tri, out[: tri.shape[0]]), (quad, out[tri.shape[0] :])):
+        for s in range(0, cells.shape[0], CHUNK):
+            c = cells[s : s + CHUNK].T.astype(np.intp)
+            if cells.shape[1] == 3:
+                z0 = z[c[0]]
+                u = z[c[1]]
+                u -= z0
+                v = z[c[2]]
+                v -= z0
+            else:
+                u = z[c[2]]
+                u -= z[c[0]]
+                v = z[c[3]]
+                v -= z[c[1]]
+            _half_cross(u.real, u.imag, v.real, v.imag, part[s : s + CHUNK])
+    return out
+
+
+def _signed_areas_columns(points, tri, quad, out):
+    """:func:`signed_areas` from the x and y columns (any dtype and width of ``points``)."""
     # gathers from the x and y columns (1-D) are much faster than from (N, 2) rows
     x, y = points[:, 0], points[:, 1]
     if tri.shape[0]:
