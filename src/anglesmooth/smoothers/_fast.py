@@ -72,6 +72,7 @@ __all__ = [
     "active",
     "angle_choose",
     "angle_target",
+    "area_limits",
     "cold_kernels",
     "compile_estimate",
     "jit_stats",
@@ -94,6 +95,10 @@ AUTO_MIN_FREE = 40_000
 #: chunk to a thread costs some 10-50 us; 8192 nodes take 0.3 ms (``ring_mean``) to 8 ms
 #: (``angle_choose``).
 MIN_CHUNK = 8192
+#: The same for the kernels whose nodes cost more, as a fraction of :data:`MIN_CHUNK` (so that lowering
+#: it lowers theirs): a node of ``angle_choose`` about 0.4 us, one compass search (``compass``, the
+#: worst 5 % of a block) 3-6 us, so 2048 and 128 nodes are about 1 ms a chunk.
+MIN_CHUNK_DIV = {"angle_choose": 4, "compass": 64}
 #: Chunks per thread: a thread on a busy core takes fewer of them instead of holding the others up.
 CHUNKS_PER_THREAD = 4
 
@@ -101,12 +106,14 @@ CHUNKS_PER_THREAD = 4
 #: only for the estimate that :func:`compile_estimate` gives before a run; unknown kernels count
 #: :data:`_DEFAULT_COMPILE_S`.  ``_node_score`` is compiled once per process, by the first kernel
 #: that calls it (``angle_choose`` in a default run: 2.1 s with it, ``compass`` then 0.7 s); each
-#: figure here counts it, so an estimate over several kernels is on the safe side.
-COMPILE_S = {"angle_choose": 2.2, "compass": 1.5, "score": 0.7, "ring_mean": 0.3, "angle_target": 0.6}
+#: figure here counts it, so an estimate over several kernels is on the safe side.  
+#: ``_cell_area_range`` (:func:`area_limits`) is a mesh-wide loop, not split per node (hence private).
+COMPILE_S = {"angle_choose": 2.2, "compass": 1.5, "score": 0.7, "ring_mean": 0.3, "angle_target": 0.6,
+             "_cell_area_range": 0.2}
 _DEFAULT_COMPILE_S = 2.0
 #: The kernels a method's default run calls (for :func:`compile_estimate`; a hint, not a contract).
 METHOD_KERNELS = {
-    "angle": ("angle_choose", "ring_mean", "compass"),
+    "angle": ("angle_choose", "ring_mean", "compass", "_cell_area_range"),
     "laplacian": ("ring_mean", "score"),
     "smart-laplacian": ("ring_mean", "score"),
     "optimization": ("ring_mean", "compass"),
@@ -199,11 +206,16 @@ def set_threads(n: int | None) -> None:
     _threads_cap = None if n is None else int(n)
 
 
+def _min_chunk(name: str = "") -> int:
+    return max(1, MIN_CHUNK // MIN_CHUNK_DIV.get(name, 1))
+
+
 def threads(n_nodes: int | None = None) -> int:
     """Threads for a kernel call over ``n_nodes`` nodes (``None``: the most any call would use).
 
     The cores this process may run on, capped by ``NUMBA_NUM_THREADS`` (when set) and
-    :func:`set_threads`, and by one thread per :data:`MIN_CHUNK` nodes.
+    :func:`set_threads`, and by one thread per :data:`MIN_CHUNK` nodes (the kernels of
+    :data:`MIN_CHUNK_DIV` count each node that many times).
     """
     n = _cores()
     env = os.environ.get("NUMBA_NUM_THREADS", "").strip()
@@ -316,7 +328,7 @@ def _chunk(a: np.ndarray, axis: int, lo: int, hi: int) -> np.ndarray:
 def _threaded(fn, args, spec, n: int, n_threads: int):
     """``fn(*args)`` with the per-node arguments cut into chunks that ``n_threads`` threads take in turn."""
     per_node, out_axis, _ = spec
-    n_chunks = min(n_threads * CHUNKS_PER_THREAD, max(n_threads, n // MIN_CHUNK))
+    n_chunks = min(n_threads * CHUNKS_PER_THREAD, max(n_threads, n // _min_chunk(fn.__name__)))
     bounds = np.linspace(0, n, n_chunks + 1).astype(np.int64)
     results = [None] * n_chunks
     counter = itertools.count()
@@ -352,7 +364,7 @@ def _call(fn, args):
     _prepare(fn, args)
     names = _params(fn)
     n = args[names.index("nodes")].shape[0] if "nodes" in names and len(names) == len(args) else 0
-    n_threads = threads(n) if n else 1
+    n_threads = threads(n * MIN_CHUNK_DIV.get(fn.__name__, 1)) if n else 1
     spec = _split_spec(fn, args) if n_threads > 1 else None
     if spec is None:
         return fn(*args)
@@ -441,6 +453,15 @@ def local_scale(points: np.ndarray, topo, blk, subset: np.ndarray | None = None)
     if subset is not None:
         nodes = nodes[subset]
     return _run(_k().ring_mean, points, nodes, topo.free_nodes, rp, topo.ring_nbr, True)[:, 0]
+
+
+def area_limits(points: np.ndarray, topo):
+    """(smallest, largest) signed area of the mesh's cells at ``points`` (``float(areas.min())``,
+    ``float(areas.max())`` of ``topology.signed_areas``, the same numbers), or None without cells."""
+    if topo.tri.shape[0] + topo.quad.shape[0] == 0:
+        return None
+    lo, hi = _run(_k()._cell_area_range, np.ascontiguousarray(points, dtype=np.float64), topo.tri, topo.quad)
+    return float(lo), float(hi)
 
 
 def _floors(floors) -> np.ndarray:
@@ -540,5 +561,7 @@ def warm_up(kernels=None) -> None:
             laplacian_target(pts, topo, blk), local_scale(pts, topo, blk)
         if "angle_choose" in want:
             angle_choose(pts, topo, blk, 0.5)
+    if "_cell_area_range" in want:
+        area_limits(pts, topo)
 
 
