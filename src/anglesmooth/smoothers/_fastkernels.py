@@ -423,13 +423,18 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
     for i in prange(n):
         f = nodes[i]
         ax, ay = _node_angle(pts, f, free, sp, ring, sa, sb, frac)
-        s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv, fl)
+        kp = keep.shape[0] > 0 and keep[i]
+        if kp:  # staying is scored too: gather the cells once, score A from them (the same number)
+            _node_rows(pts, f, tp, tv, qp, qv, buf)
+            s_a = _node_score_rows(ax, ay, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf)
+        else:
+            s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv, fl)
         refused[i] = s_a <= INVALID + 0.5
         cx, cy = pts[free[f], 0], pts[free[f], 1]
         take = s_a >= good[i]
-        if not take or (keep.shape[0] > 0 and keep[i]):  # more candidates to score: gather the cells once
+        if not take and not kp:  # more candidates to score: gather the cells once
             _node_rows(pts, f, tp, tv, qp, qv, buf)
-        if take and keep.shape[0] > 0 and keep[i]:
+        if take and kp:
             take = s_a >= _node_score_rows(cx, cy, f, tp, qp, buf, fl, s_a, -np.inf, np.inf)
         if take:
             new[i, 0], new[i, 1], best[i] = ax, ay, s_a
@@ -438,7 +443,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
         lx, ly = _node_ring_mean(pts, f, free, rp, nbr, False)
         bx, by, bs = ax, ay, s_a
         stuck = s_a <= INVALID + 0.5
-        near_ok = nearest and not (keep.shape[0] > 0 and keep[i])
+        near_ok = nearest and not kp
         nx = ny = ns = 0.0
         nd = np.inf
         for k in range(4):
