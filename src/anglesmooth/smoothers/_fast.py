@@ -95,10 +95,6 @@ AUTO_MIN_FREE = 40_000
 #: chunk to a thread costs some 10-50 us; 8192 nodes take 0.3 ms (``ring_mean``) to 8 ms
 #: (``angle_choose``).
 MIN_CHUNK = 8192
-#: The same for the kernels whose nodes cost more, as a fraction of :data:`MIN_CHUNK` (so that lowering
-#: it lowers theirs): a node of ``angle_choose`` about 0.4 us, one compass search (``compass``, the
-#: worst 5 % of a block) 3-6 us, so 2048 and 128 nodes are about 1 ms a chunk.
-MIN_CHUNK_DIV = {"angle_choose": 4, "compass": 64}
 #: Chunks per thread: a thread on a busy core takes fewer of them instead of holding the others up.
 CHUNKS_PER_THREAD = 4
 
@@ -206,16 +202,11 @@ def set_threads(n: int | None) -> None:
     _threads_cap = None if n is None else int(n)
 
 
-def _min_chunk(name: str = "") -> int:
-    return max(1, MIN_CHUNK // MIN_CHUNK_DIV.get(name, 1))
-
-
 def threads(n_nodes: int | None = None) -> int:
     """Threads for a kernel call over ``n_nodes`` nodes (``None``: the most any call would use).
 
     The cores this process may run on, capped by ``NUMBA_NUM_THREADS`` (when set) and
-    :func:`set_threads`, and by one thread per :data:`MIN_CHUNK` nodes (the kernels of
-    :data:`MIN_CHUNK_DIV` count each node that many times).
+    :func:`set_threads`, and by one thread per :data:`MIN_CHUNK` nodes.
     """
     n = _cores()
     env = os.environ.get("NUMBA_NUM_THREADS", "").strip()
@@ -328,7 +319,7 @@ def _chunk(a: np.ndarray, axis: int, lo: int, hi: int) -> np.ndarray:
 def _threaded(fn, args, spec, n: int, n_threads: int):
     """``fn(*args)`` with the per-node arguments cut into chunks that ``n_threads`` threads take in turn."""
     per_node, out_axis, _ = spec
-    n_chunks = min(n_threads * CHUNKS_PER_THREAD, max(n_threads, n // _min_chunk(fn.__name__)))
+    n_chunks = min(n_threads * CHUNKS_PER_THREAD, max(n_threads, n // MIN_CHUNK))
     bounds = np.linspace(0, n, n_chunks + 1).astype(np.int64)
     results = [None] * n_chunks
     counter = itertools.count()
@@ -364,7 +355,7 @@ def _call(fn, args):
     _prepare(fn, args)
     names = _params(fn)
     n = args[names.index("nodes")].shape[0] if "nodes" in names and len(names) == len(args) else 0
-    n_threads = threads(n * MIN_CHUNK_DIV.get(fn.__name__, 1)) if n else 1
+    n_threads = threads(n) if n else 1
     spec = _split_spec(fn, args) if n_threads > 1 else None
     if spec is None:
         return fn(*args)
