@@ -72,6 +72,7 @@ __all__ = [
     "active",
     "angle_choose",
     "angle_target",
+    "area_limits",
     "cold_kernels",
     "compile_estimate",
     "jit_stats",
@@ -101,12 +102,14 @@ CHUNKS_PER_THREAD = 4
 #: only for the estimate that :func:`compile_estimate` gives before a run; unknown kernels count
 #: :data:`_DEFAULT_COMPILE_S`.  ``_node_score`` is compiled once per process, by the first kernel
 #: that calls it (``angle_choose`` in a default run: 2.1 s with it, ``compass`` then 0.7 s); each
-#: figure here counts it, so an estimate over several kernels is on the safe side.
-COMPILE_S = {"angle_choose": 2.2, "compass": 1.5, "score": 0.7, "ring_mean": 0.3, "angle_target": 0.6}
+#: figure here counts it, so an estimate over several kernels is on the safe side.  
+#: ``_cell_area_range`` (:func:`area_limits`) is a mesh-wide loop, not split per node (hence private).
+COMPILE_S = {"angle_choose": 2.2, "compass": 1.5, "score": 0.7, "ring_mean": 0.3, "angle_target": 0.6,
+             "_cell_area_range": 0.2}
 _DEFAULT_COMPILE_S = 2.0
 #: The kernels a method's default run calls (for :func:`compile_estimate`; a hint, not a contract).
 METHOD_KERNELS = {
-    "angle": ("angle_choose", "ring_mean", "compass"),
+    "angle": ("angle_choose", "ring_mean", "compass", "_cell_area_range"),
     "laplacian": ("ring_mean", "score"),
     "smart-laplacian": ("ring_mean", "score"),
     "optimization": ("ring_mean", "compass"),
@@ -443,6 +446,15 @@ def local_scale(points: np.ndarray, topo, blk, subset: np.ndarray | None = None)
     return _run(_k().ring_mean, points, nodes, topo.free_nodes, rp, topo.ring_nbr, True)[:, 0]
 
 
+def area_limits(points: np.ndarray, topo):
+    """(smallest, largest) signed area of the mesh's cells at ``points`` (``float(areas.min())``,
+    ``float(areas.max())`` of ``topology.signed_areas``, the same numbers), or None without cells."""
+    if topo.tri.shape[0] + topo.quad.shape[0] == 0:
+        return None
+    lo, hi = _run(_k()._cell_area_range, np.ascontiguousarray(points, dtype=np.float64), topo.tri, topo.quad)
+    return float(lo), float(hi)
+
+
 def _floors(floors) -> np.ndarray:
     """The input floors (``_floors.Floors`` or None) as the (6, rows) array the kernels take; (0, 0) for none."""
     return np.zeros((0, 0)) if floors is None or not floors.active else floors.packed
@@ -540,5 +552,7 @@ def warm_up(kernels=None) -> None:
             laplacian_target(pts, topo, blk), local_scale(pts, topo, blk)
         if "angle_choose" in want:
             angle_choose(pts, topo, blk, 0.5)
+    if "_cell_area_range" in want:
+        area_limits(pts, topo)
 
 

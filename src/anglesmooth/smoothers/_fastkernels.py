@@ -165,7 +165,7 @@ def _node_rows(pts, f, tp, tv, qp, qv, buf):
 
 
 @_helper
-def _node_score_rows(px, py, f, tp, qp, buf, fl, cut):
+def _node_score_rows(px, py, f, tp, qp, buf, fl, cut, lo0, hi0):
     """:func:`_node_score` from the rows :func:`_node_rows` put in ``buf`` for node ``f`` (same numbers).
 
     ``cut``: the caller needs the score only where it is above ``cut``; where it is not, ``-inf`` may
@@ -178,10 +178,15 @@ def _node_score_rows(px, py, f, tp, qp, buf, fl, cut):
     worst cell, or the one that cut it off; kept in ``buf``'s last row): a minimum and a count of
     invalid cells do not depend on the order, and a nearby candidate is most often cut off by the
     same cell, so most candidates that cannot win stop after one cell.
+
+    ``lo0``, ``hi0``: an area band (``-inf``, ``inf``: none): ``-inf`` where an incident cell's signed
+    area (``_tri_area`` / ``_quad_area``, from the same products as the score) is outside
+    [lo0, hi0], as :meth:`BlockGeometry.banded_score` gives, found in the same pass over the cells.
     """
     best = np.inf
     bad = 0.0
     floors = fl.shape[0] > 0
+    banded = not ((lo0 == -np.inf) & (hi0 == np.inf))  # (a NaN bound: banded, every cell outside)
     cut_invalid = cut >= INVALID - 1.0
     t0, nt = tp[f], tp[f + 1] - tp[f]
     q0 = qp[f]
@@ -205,6 +210,11 @@ def _node_score_rows(px, py, f, tp, qp, buf, fl, cut):
             v2 = (fx2 * ux + fy2 * uy) / (l2 * l12)
             v = min(v0, v1, v2)
             cr = ex1 * fy2 - ey1 * fx2
+            if banded:
+                a = -0.5 * cr  # _tri_area exactly: fx2 = -(x2 - px), fy2 = -(y2 - py)
+                if not ((a >= lo0) & (a <= hi0)):
+                    buf[hint, 0] = k
+                    return -np.inf
             okf = True
             if floors:
                 r = t0 + k
@@ -226,10 +236,16 @@ def _node_score_rows(px, py, f, tp, qp, buf, fl, cut):
             a3 = abs((ex3 * vx + ey3 * vy) / (l3 * l23))
             cm = max(a0, a1, a3, qc2)
             ok = (ex1 * ey3 - ey1 * ex3 > 0) & (uy * ex1 - ux * ey1 > 0) & (ex3 * vy - ey3 * vx > 0) & ok2
-            if floors:
-                r = q0 + k - nt
-                a2 = (x1 + ux - px) * (y3 - y1) - (y1 + uy - py) * (x3 - x1)
-                ok = ok & (a2 >= fl[3, r]) & (l1 >= fl[4, r]) & (l3 >= fl[5, r])
+            if floors or banded:
+                a2 = (x1 + ux - px) * (y3 - y1) - (y1 + uy - py) * (x3 - x1)  # twice _quad_area
+                if banded:
+                    a = 0.5 * a2
+                    if not ((a >= lo0) & (a <= hi0)):
+                        buf[hint, 0] = k
+                        return -np.inf
+                if floors:
+                    r = q0 + k - nt
+                    ok = ok & (a2 >= fl[3, r]) & (l1 >= fl[4, r]) & (l3 >= fl[5, r])
             valid = ok & (a0 < np.inf) & (a1 < np.inf) & (a3 < np.inf)
             v = -cm
             if not valid:
@@ -290,8 +306,27 @@ def score(pts, X, nodes, tp, tv, qp, qv, fl):
         f = nodes[i]
         _node_rows(pts, f, tp, tv, qp, qv, buf)
         for k in range(K):
-            out[k, i] = _node_score_rows(X[k, i, 0], X[k, i, 1], f, tp, qp, buf, fl, -np.inf)
+            out[k, i] = _node_score_rows(X[k, i, 0], X[k, i, 1], f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf)
     return out
+
+
+@_kernel
+def _cell_area_range(pts, tri, quad):
+    """(smallest, largest) signed area of all cells, ``topology.signed_areas``' operations (NaN, NaN
+    when one is NaN, as ``areas.min()`` / ``max()``); (inf, -inf) for no cells.  Not split per node."""
+    lo, hi, nan = np.inf, -np.inf, False
+    for c in range(tri.shape[0]):
+        i0, i1, i2 = tri[c, 0], tri[c, 1], tri[c, 2]
+        x0, y0 = pts[i0, 0], pts[i0, 1]
+        a = 0.5 * ((pts[i1, 0] - x0) * (pts[i2, 1] - y0) - (pts[i1, 1] - y0) * (pts[i2, 0] - x0))
+        nan |= a != a
+        lo, hi = min(lo, a), max(hi, a)
+    for c in range(quad.shape[0]):
+        i0, i1, i2, i3 = quad[c, 0], quad[c, 1], quad[c, 2], quad[c, 3]
+        a = 0.5 * ((pts[i2, 0] - pts[i0, 0]) * (pts[i3, 1] - pts[i1, 1]) - (pts[i2, 1] - pts[i0, 1]) * (pts[i3, 0] - pts[i1, 0]))
+        nan |= a != a
+        lo, hi = min(lo, a), max(hi, a)
+    return (np.nan, np.nan) if nan else (lo, hi)
 
 
 @njit(inline="always")
@@ -388,14 +423,19 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
     for i in prange(n):
         f = nodes[i]
         ax, ay = _node_angle(pts, f, free, sp, ring, sa, sb, frac)
-        s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv, fl)
+        kp = keep.shape[0] > 0 and keep[i]
+        if kp:  # staying is scored too: gather the cells once, score A from them (the same number)
+            _node_rows(pts, f, tp, tv, qp, qv, buf)
+            s_a = _node_score_rows(ax, ay, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf)
+        else:
+            s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv, fl)
         refused[i] = s_a <= INVALID + 0.5
         cx, cy = pts[free[f], 0], pts[free[f], 1]
         take = s_a >= good[i]
-        if not take or (keep.shape[0] > 0 and keep[i]):  # more candidates to score: gather the cells once
+        if not take and not kp:  # more candidates to score: gather the cells once
             _node_rows(pts, f, tp, tv, qp, qv, buf)
-        if take and keep.shape[0] > 0 and keep[i]:
-            take = s_a >= _node_score_rows(cx, cy, f, tp, qp, buf, fl, s_a)
+        if take and kp:
+            take = s_a >= _node_score_rows(cx, cy, f, tp, qp, buf, fl, s_a, -np.inf, np.inf)
         if take:
             new[i, 0], new[i, 1], best[i] = ax, ay, s_a
             continue
@@ -403,7 +443,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
         lx, ly = _node_ring_mean(pts, f, free, rp, nbr, False)
         bx, by, bs = ax, ay, s_a
         stuck = s_a <= INVALID + 0.5
-        near_ok = nearest and not (keep.shape[0] > 0 and keep[i])
+        near_ok = nearest and not kp
         nx = ny = ns = 0.0
         nd = np.inf
         for k in range(4):
@@ -416,7 +456,8 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
             else:
                 px, py = cx, cy
             # exact where it beats bs or, with near_ok, where it is good enough (a cut below good[i])
-            sk = _node_score_rows(px, py, f, tp, qp, buf, fl, min(bs, good[i] - 1e-9) if near_ok else bs)
+            cut = min(bs, good[i] - 1e-9) if near_ok else bs
+            sk = _node_score_rows(px, py, f, tp, qp, buf, fl, cut, -np.inf, np.inf)
             if k < 3:
                 stuck = stuck & (sk <= INVALID + 0.5)
             elif stuck:
@@ -435,7 +476,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
             fr = 1.0
             for _ in range(7):
                 px, py = cx + fr * dx, cy + fr * dy
-                sk = _node_score_rows(px, py, f, tp, qp, buf, fl, INVALID + 0.5)  # exact where valid
+                sk = _node_score_rows(px, py, f, tp, qp, buf, fl, INVALID + 0.5, -np.inf, np.inf)  # exact where valid
                 if sk > INVALID + 0.5:
                     bx, by, bs = px, py, sk
                     break
@@ -456,8 +497,8 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
         f = nodes[i]
         px, py = x[i, 0], x[i, 1]
         _node_rows(pts, f, tp, tv, qp, qv, buf)
-        s0 = _node_score_rows(px, py, f, tp, qp, buf, fl, -np.inf)
-        lo0 = hi0 = 0.0
+        s0 = _node_score_rows(px, py, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf)
+        lo0, hi0 = -np.inf, np.inf  # no band
         if band >= 0:
             lr, hr = _node_area_range_rows(px, py, f, tp, qp, buf)
             lo0 = max(band * lr, min(alo, lr))
@@ -469,13 +510,10 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
             for c in range(directions.shape[0]):
                 qx, qy = px + directions[c, 0] * r, py + directions[c, 1] * r
                 # only a candidate above max(bs, s0) can change the outcome (the first best, moved to
-                # only if it beats s0), so the others may be cut off early and need no area band
-                cut = max(bs, s0)
-                sc = _node_score_rows(qx, qy, f, tp, qp, buf, fl, cut)
-                if band >= 0 and sc > cut:
-                    lo, hi = _node_area_range_rows(qx, qy, f, tp, qp, buf)
-                    if not (lo >= lo0 and hi <= hi0):
-                        sc = -np.inf
+                # only if it beats s0), so the others may be cut off early; a cell outside the area
+                # band gives -inf at once (the outcome depends only on the candidates above s0, and
+                # those are exact and within the band either way)
+                sc = _node_score_rows(qx, qy, f, tp, qp, buf, fl, max(bs, s0), lo0, hi0)
                 if c == 0 or sc > bs:  # np.argmax: the first best
                     bx, by, bs = qx, qy, sc
             if bs > s0:

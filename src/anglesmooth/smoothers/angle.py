@@ -259,9 +259,12 @@ def step(
     fast = guard and hybrid and _fast.active(topo)
     limits = None
     if guard and hybrid and opt_iterations > 0 and area_band is not None and area_limits:
-        areas = signed_areas(points, topo.tri, topo.quad)
-        if areas.size:
-            limits = (float(areas.min()), float(areas.max()))
+        if fast:  # the same two numbers, one compiled loop
+            limits = _fast.area_limits(points, topo)
+        else:
+            areas = signed_areas(points, topo.tri, topo.quad)
+            if areas.size:
+                limits = (float(areas.min()), float(areas.max()))
 
     def choose(pts, blk, cur, geom):
         """Stages 1 and 2: (positions, their local scores, number of invalid angle positions)."""
