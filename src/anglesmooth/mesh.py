@@ -194,11 +194,11 @@ def _check_size(pts: np.ndarray) -> None:
     """Refuse coordinates beyond :data:`MAX_COORD` and meshes smaller than :data:`MIN_SIZE` (InvalidMeshError)."""
     if not pts.shape[0]:
         return
-    big = np.abs(pts).max(axis=1) > MAX_COORD
-    if big.any():
-        i = int(np.flatnonzero(big)[0])
+    hi, lo = pts.max(axis=0), pts.min(axis=0)
+    if hi.max() > MAX_COORD or lo.min() < -MAX_COORD:  # the per-node mask only to name the first bad node
+        i = int(np.flatnonzero((np.abs(pts) > MAX_COORD).any(axis=1))[0])
         raise InvalidMeshError(f"node {i} has an absurd coordinate {pts[i].tolist()} (limit {MAX_COORD:g})")
-    span = pts.max(axis=0) - pts.min(axis=0)
+    span = hi - lo
     size = float(np.hypot(span[0], span[1]))
     if 0 < size < MIN_SIZE:
         raise InvalidMeshError(f"the mesh is too small to compute with: its bounding-box diagonal is {size:.3g}, "
