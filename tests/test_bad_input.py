@@ -21,9 +21,14 @@ Decisions documented here (and in BAD_INPUTS.md):
   crack whose two sides are boundaries (fixed);
 * unused nodes are allowed and fixed;
 * zero-area cells (three collinear nodes, or a repeated node) are reported as
-  inverted (count and first indices, ``inverted`` in the JSON report); the
+  degenerate, not inverted (count and first indices, ``degenerate`` and
+  ``degenerate_cells`` in the JSON report; inverted means signed area < 0); the
   guarded methods may move the free nodes of a collinear cell apart, a cell
   with a repeated node stays degenerate;
+* a mesh smaller than 1e-100 across (bounding-box diagonal) is refused (exit 3):
+  its squared lengths and areas underflow; coordinates beyond 1e150 are refused;
+* a mesh without a free node (cells that share no edge: every node is on the
+  boundary) is accepted with a warning: nothing to smooth;
 * tangled input is accepted with a warning; the guarded methods never increase
   the number of invalid cells around a node and move a folded node back into
   its ring when that lowers the count (angle, laplacian, smart-laplacian): see
@@ -249,6 +254,10 @@ def corpus() -> list[Case]:
         Case("nan", "a NaN coordinate", with_coord(np.nan), 3, "node 7 has a non-finite coordinate"),
         Case("inf", "an inf coordinate", with_coord(np.inf), 3, "node 7 has a non-finite coordinate"),
         Case("1e308", "a 1e308 coordinate", with_coord(1e308), 3, "node 7 has an absurd coordinate"),
+        Case("scaled-1e-300", "the coordinates scaled by 1e-300 (areas underflow)",
+             vtu(P3 * 1e-300, [("triangle", T)]), 3, "the mesh is too small to compute with"),
+        Case("scaled-1e300", "the coordinates scaled by 1e+300 (squares overflow)",
+             vtu(P3 * 1e300, [("triangle", T)]), 3, "has an absurd coordinate"),
         Case("index-missing", "a cell references node 30 of 25", with_index(30), 3, "references node 30"),
         Case("index-negative", "a cell references node -1", with_index(-1), 3, "references node -1"),
         Case("no-nodes", "no nodes, one triangle block of zero cells", vtu(np.zeros((0, 3)),
@@ -276,10 +285,12 @@ def corpus() -> list[Case]:
              duplicate_crack(), 0),
         Case("unused-nodes", "two nodes no cell uses (allowed: fixed, not moved)",
              vtu(np.vstack([P3, [[10, 10, 0], [0.5, 0.5, 0]]]), [("triangle", T)]), 0),
-        Case("zero-area-collinear", "a triangle with three collinear nodes (reported as inverted)",
-             zero_area_collinear(), 0, "inverted cell"),
-        Case("zero-area-repeated", "a triangle with a repeated node (reported as inverted, stays degenerate)",
-             vtu(P3, [("triangle", np.vstack([T, [[0, 0, 1]]]))]), 0, "inverted cell"),
+        Case("zero-area-collinear", "a triangle with three collinear nodes (reported as degenerate)",
+             zero_area_collinear(), 0, "degenerate cell"),
+        Case("zero-area-repeated", "a triangle with a repeated node (reported as degenerate, stays degenerate)",
+             vtu(P3, [("triangle", np.vstack([T, [[0, 0, 1]]]))]), 0, "degenerate cell"),
+        Case("disconnected", "triangles that share no node (every node on the boundary: nothing to smooth)",
+             vtu(P3[T[:4].ravel()], [("triangle", np.arange(12).reshape(4, 3))]), 0, "nothing to smooth"),
         Case("clockwise-some", "every third triangle written clockwise (re-oriented, valid)", clockwise(3), 0),
         Case("clockwise-all", "all triangles written clockwise (re-oriented, valid)", clockwise(1), 0),
         Case("tangled", "an interior node thrown across its ring (2 inverted cells; untangled)", tangled(), 0,
@@ -486,11 +497,27 @@ def test_tangled_input_is_reported_and_untangled(tmp_path):
 
 
 def test_zero_area_cells_are_reported(tmp_path):
+    """A zero-area cell is degenerate, never also inverted (inverted: signed area < 0)."""
     _, _, doc = _smooth_json(tmp_path, "zero-area-collinear")
-    assert doc["before"]["inverted"] == 1 and doc["after"]["inverted"] == 0  # the free node moves off the line
+    b, a = doc["before"], doc["after"]
+    assert (b["degenerate"], b["degenerate_cells"], b["inverted"]) == (1, [5], 0)
+    assert a["degenerate"] == 0 and a["inverted"] == 0  # the free node moves off the line
     (tmp_path / "r").mkdir()
     _, _, doc = _smooth_json(tmp_path / "r", "zero-area-repeated")
-    assert doc["before"]["inverted"] == 1 and doc["after"]["inverted"] == 1  # a repeated node cannot be fixed
+    b, a = doc["before"], doc["after"]
+    assert (b["degenerate"], b["inverted"]) == (1, 0)
+    assert (a["degenerate"], a["inverted"]) == (1, 0)  # a repeated node cannot be fixed
+
+
+def test_disconnected_cells_warn_nothing_to_smooth(tmp_path):
+    inp, out, doc = _smooth_json(tmp_path, "disconnected")
+    assert doc["before"]["fixed_nodes"] == doc["before"]["nodes"] == 12
+    assert np.array_equal(meshio.read(inp).points, meshio.read(out).points)
+    r = cli_runner().invoke(cli, [str(inp), str(tmp_path / "o2.vtu")])
+    warn = [line for line in r.stderr.splitlines() if "warning" in line]
+    assert r.exit_code == 0 and len(warn) == 1 and "all 12 nodes are fixed" in warn[0], r.stderr
+    r = cli_runner().invoke(cli, [str(inp), str(tmp_path / "o3.vtu"), "-q"])
+    assert r.exit_code == 0 and "warning" not in r.stderr
 
 
 # --------------------------------------------------------------------------- out of memory, write failures

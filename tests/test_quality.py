@@ -119,7 +119,9 @@ def test_degenerate_cells_and_json_safety():
     moved[4] = [0.5, 0.0]  # triangle 0 collapses onto the x axis
     s = q.summarize(moved, topo)
     assert s["degenerate"] == 1 and s["min_area"] == 0.0 and s["area_ratio"] is None
-    assert s["inverted"] == 1 and s["inverted_cells"] == [0]
+    # disjoint: a zero-area cell is degenerate, not inverted (inverted means signed area < 0)
+    assert s["degenerate_cells"] == [0] and s["inverted"] == 0 and s["inverted_cells"] == []
+    assert q.degenerate_cells(moved, topo).tolist() == [0] and q.inverted_cells(moved, topo).size == 0
     assert s["tri_aspect_ratio"]["max"] == q.VERDICT_DBL_MAX
     assert s["tri_radius_ratio"]["max"] == q.VERDICT_DBL_MAX
     text = json.dumps(s, allow_nan=False)

@@ -1,23 +1,24 @@
 """Quality gates: thresholds on a quality summary, from options or a TOML file.
 
 A gate compares one number of :func:`anglesmooth.quality.summarize`'s summary
-with a threshold.  The five gates and what passes:
+with a threshold.  The six gates and what passes:
 
 ==================  =====================================================  =========
 gate                value                                                  passes if
 ==================  =====================================================  =========
 min_angle           ``min_angle``                                          value >= threshold
 max_angle           ``max_angle``                                          value <= threshold
-max_inverted        ``inverted``                                           value <= threshold
-max_degenerate      ``degenerate`` (cells of near-zero area)               value <= threshold
+max_inverted        ``inverted`` (cells of signed area < 0)                value <= threshold
+max_degenerate      ``degenerate`` (0 <= area <= 1e-12 x bbox diagonal^2)  value <= threshold
 max_area_ratio      ``area_ratio`` (infinite when a cell has zero area)     value <= threshold
 max_aspect_ratio    max of the triangle and quad Verdict aspect ratios      value <= threshold
 ==================  =====================================================  =========
 
-``max_inverted`` and ``max_degenerate`` are 0 whenever another gate is given,
-and :func:`resolve_thresholds` with ``safe=True`` (what ``anglesmooth check``
-uses) sets them even when no gate is given: a mesh a solver rejects never
-passes silently.
+An inverted cell is never also counted as degenerate, nor the reverse
+(:mod:`anglesmooth.quality.validity`).  ``max_inverted`` and ``max_degenerate``
+are 0 whenever another gate is given, and :func:`resolve_thresholds` with
+``safe=True`` (what ``anglesmooth check`` uses) sets them even when no gate is
+given: a mesh a solver rejects never passes silently.
 
 A failed gate's message prints the value and the threshold with enough digits
 to differ, the unit, and -- when :func:`evaluate` is given the points and the
@@ -57,8 +58,9 @@ __all__ = ["GATES", "SAFE_DEFAULTS", "UNITS", "Gate", "evaluate", "load_gate_fil
 GATES: dict[str, tuple[str, bool]] = {
     "min_angle": ("smallest corner angle, degrees", True),
     "max_angle": ("largest corner angle, degrees", False),
-    "max_inverted": ("number of inverted cells", False),
-    "max_degenerate": ("number of degenerate cells (|area| <= 1e-12 x bounding-box diagonal squared)", False),
+    "max_inverted": ("number of inverted cells (signed area < 0: orientation flipped)", False),
+    "max_degenerate": ("number of degenerate cells (0 <= signed area <= 1e-12 x bounding-box diagonal squared; "
+                       "not inverted)", False),
     "max_area_ratio": ("largest / smallest cell area", False),
     "max_aspect_ratio": ("largest Verdict aspect ratio (triangles and quads)", False),
 }
@@ -201,13 +203,7 @@ def worst_cell(points: Any, topology: Any, name: str) -> int | None:
     elif name == "max_angle":
         per_cell, pick = quality.cell_max_angles(pts, topology), np.argmax
     elif name in ("max_inverted", "max_degenerate"):
-        area = quality.cell_areas(pts, topology)
-        if name == "max_inverted":
-            bad = area <= 0
-        else:
-            span = pts.max(axis=0) - pts.min(axis=0) if pts.shape[0] else np.zeros(2)
-            bad = np.abs(area) <= quality.DEGENERATE_REL * float((span**2).sum())
-        first = np.flatnonzero(bad)
+        first = (quality.inverted_cells if name == "max_inverted" else quality.degenerate_cells)(pts, topology)
         return int(first[0]) if first.size else None
     elif name == "max_area_ratio":
         per_cell, pick = np.abs(quality.cell_areas(pts, topology)), np.argmin

@@ -25,7 +25,16 @@ import numpy as np
 
 from .errors import InvalidMeshError
 
-__all__ = ["Mesh2D", "place_high_order"]
+__all__ = ["MAX_COORD", "MIN_SIZE", "Mesh2D", "place_high_order"]
+
+#: Largest coordinate magnitude a mesh may have (the file readers refuse larger ones too): squared
+#: lengths and areas stay below the largest double (1.8e308).
+MAX_COORD = 1.0e150
+
+#: Smallest bounding-box diagonal of a mesh whose nodes do not all coincide: below it, squared lengths
+#: and areas of its cells underflow double precision (the smoothers' arithmetic and the validity
+#: checks would see zero areas everywhere).
+MIN_SIZE = 1.0e-100
 
 _EMPTY_I = np.zeros((0,), dtype=np.int64)
 
@@ -101,6 +110,7 @@ class Mesh2D:
         if not finite.all():
             i = int(np.flatnonzero(~finite)[0])
             raise InvalidMeshError(f"node {i} has a non-finite coordinate {pts[i].tolist()}")
+        _check_size(pts)
         tri = np.asarray(self.triangles, dtype=np.int64).reshape(-1, 3)
         quad = np.asarray(self.quads, dtype=np.int64).reshape(-1, 4)
         set_ = object.__setattr__
@@ -178,6 +188,22 @@ class Mesh2D:
         from dataclasses import replace
 
         return replace(self, points=points)
+
+
+def _check_size(pts: np.ndarray) -> None:
+    """Refuse coordinates beyond :data:`MAX_COORD` and meshes smaller than :data:`MIN_SIZE` (InvalidMeshError)."""
+    if not pts.shape[0]:
+        return
+    hi, lo = pts.max(axis=0), pts.min(axis=0)
+    if hi.max() > MAX_COORD or lo.min() < -MAX_COORD:  # the per-node mask only to name the first bad node
+        i = int(np.flatnonzero((np.abs(pts) > MAX_COORD).any(axis=1))[0])
+        raise InvalidMeshError(f"node {i} has an absurd coordinate {pts[i].tolist()} (limit {MAX_COORD:g})")
+    span = hi - lo
+    size = float(np.hypot(span[0], span[1]))
+    if 0 < size < MIN_SIZE:
+        raise InvalidMeshError(f"the mesh is too small to compute with: its bounding-box diagonal is {size:.3g}, "
+                               f"below {MIN_SIZE:g} (squared lengths and areas underflow double precision); "
+                               "scale the coordinates up")
 
 
 def place_high_order(mesh: Mesh2D, points: np.ndarray, fixed: np.ndarray) -> np.ndarray:

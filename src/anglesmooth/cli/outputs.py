@@ -88,10 +88,19 @@ def note_fast(console: Console, topo, passes: int) -> None:
 
 
 def warn_invalid(console: Console, name: str, summary: dict) -> None:
+    """Warnings about the input of a smoothing run: inverted and degenerate cells, nothing to smooth."""
     if summary["inverted"]:
         first = ", ".join(map(str, summary["inverted_cells"]))
         console.print(f"[yellow]warning:[/] {escape(name)}: the input has {summary['inverted']} inverted cell(s) "
                       f"(first: {first}); guarded smoothing never adds inverted cells and takes moves that remove them")
+    if summary.get("degenerate"):
+        first = ", ".join(map(str, summary.get("degenerate_cells", [])))
+        console.print(f"[yellow]warning:[/] {escape(name)}: the input has {summary['degenerate']} degenerate cell(s) "
+                      f"(zero or nearly zero area; first: {first})")
+    nodes = summary.get("nodes", 0)
+    if nodes and summary.get("fixed_nodes") == nodes and summary.get("triangles", 0) + summary.get("quads", 0):
+        console.print(f"[yellow]warning:[/] {escape(name)}: all {nodes} nodes are fixed (boundary, interface or "
+                      "--fix-* nodes): nothing to smooth")
 
 
 @contextlib.contextmanager

@@ -18,11 +18,22 @@ Definitions
     maximum of 226 degrees in their Table 2); every corner of an inverted
     triangle is > 180.  A corner with a zero-length edge has angle 0.
 
-    *Inverted cell*: signed area <= 0 (shoelace, relative to the mesh
-    orientation).  *Non-convex quad*: a quad with positive signed area and at
-    least one corner whose cross product ``cross(n - v, p - v)`` is <= 0 (a
-    reflex, straight or folded corner; bow-ties included).  An inverted quad is
+    *Inverted cell*: signed area < 0 (shoelace, relative to the mesh
+    orientation): its orientation is flipped.  *Degenerate cell*: signed area
+    in [0, 1e-12 d^2], d the diagonal of the bounding box of all nodes: zero
+    area (collinear or repeated nodes) or too little to tell from it.  The two
+    are disjoint: a cell of zero area is degenerate, not inverted.
+    *Non-convex quad*: a quad with positive signed area and at least one
+    corner whose cross product ``cross(n - v, p - v)`` is <= 0 (a reflex,
+    straight or folded corner; bow-ties included).  An inverted quad is
     counted as inverted only, never as non-convex.
+
+    *Scale invariance*: every measure is computed on the coordinates scaled by
+    the power of two that brings the bounding-box diagonal into [0.5, 1).  The
+    scaling is exact, so nothing changes but that products of lengths neither
+    underflow nor overflow: a mesh and the same mesh scaled by 1e-100 or 1e+100
+    have the same angles, counts and ratios (to round-off; bit for bit for a
+    power of two), and areas and lengths are reported in the mesh's units.
 
     Verdict measures follow C. J. Stimpson, C. D. Ernst, P. Knupp, P. P. Pébay
     and D. Thompson, "The Verdict Geometric Quality Library", Sandia report
@@ -39,7 +50,9 @@ Definitions
 
     Where the area vanishes, the aspect and radius ratios are Verdict's
     ``VERDICT_DBL_MAX`` = 1e30 (VTK returns the same), which keeps the summary
-    JSON-safe.
+    JSON-safe.  Verdict's smallest quad-condition cross product
+    ``VERDICT_DBL_MIN`` = 1e-30 applies to the scaled coordinates, i.e. it is
+    1e-30 x the squared mesh size (VTK: absolute).
 
 Deviations from VTK (see ``tests/test_quality.py``, which cross-checks every
 measure against ``vtkMeshQuality`` per cell)
@@ -76,7 +89,7 @@ from __future__ import annotations
 
 from .angles import cell_max_angles, cell_min_angles, corner_angles
 from .summary import METRICS, summarize
-from .validity import DEGENERATE_REL, cell_areas, invalid_cells, inverted_cells, nonconvex_quads
+from .validity import DEGENERATE_REL, cell_areas, degenerate_cells, invalid_cells, inverted_cells, nonconvex_quads
 from .verdict import (VERDICT_DBL_MAX, quad_aspect_ratio, quad_condition, quad_scaled_jacobian, tri_aspect_ratio,
                       tri_radius_ratio)
 
@@ -87,6 +100,7 @@ __all__ = [
     "cell_max_angles",
     "cell_min_angles",
     "corner_angles",
+    "degenerate_cells",
     "invalid_cells",
     "inverted_cells",
     "nonconvex_quads",

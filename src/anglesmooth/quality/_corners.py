@@ -2,16 +2,48 @@
 
 The shared base of :mod:`.angles`, :mod:`.validity`, :mod:`.verdict` and
 :mod:`.summary`; arrays are (k, n): row k is corner / edge k of every cell.
+:func:`_unit` is the scaling every measure is computed after (scale invariance).
 """
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
 
 _R2D = 180.0 / np.pi
 _BELOW_360 = np.nextafter(360.0, 0.0)
+
+
+def _unit(points: np.ndarray) -> tuple[np.ndarray, int]:
+    """``points`` times ``2**-e``, the power of two that brings their bounding-box diagonal into [0.5, 1), and ``e``.
+
+    The scaling is exact (it only changes exponents), so a measure computed on the result is the
+    measure of ``points``: lengths times ``2**-e``, areas times ``4**-e``, angles, signs and ratios
+    bit for bit the same.  Only under- and overflow go away: the products of two or four lengths
+    (cross products, squared areas) of a mesh of size 1e-100 or 1e+150 are computed as for a mesh
+    of size 1, so that every measure is scale-invariant.  ``e = 0`` (the points as they are)
+    without nodes, for coincident nodes and for non-finite coordinates.
+
+    >>> import numpy as np
+    >>> p, e = _unit(np.array([[0.0, 0.0], [3e-300, 4e-300]]))
+    >>> e, bool(0.5 <= np.hypot(*p[1]) < 1.0)
+    (-994, True)
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[0] == 0:
+        return pts, 0
+    with np.errstate(over="ignore", invalid="ignore"):
+        xy = pts[:, :2]
+        span = xy.max(axis=0) - xy.min(axis=0)
+        size = float(np.hypot(span[0], span[-1]))
+        if not math.isfinite(size):  # the differences overflow (|coordinates| near 1e308): scale by the coordinates
+            size = float(np.abs(xy).max())
+    if not (math.isfinite(size) and size > 0):
+        return pts, 0
+    e = math.frexp(size)[1]
+    return (pts if e == 0 else np.ldexp(pts, -e)), e
 
 
 class _Corners(NamedTuple):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..topology import CellTopology
-from ._corners import _corners
+from ._corners import _corners, _unit
 
 __all__ = ["cell_max_angles", "cell_min_angles", "corner_angles"]
 
@@ -41,7 +41,8 @@ def corner_angles(points: np.ndarray, topo: CellTopology) -> tuple[np.ndarray, n
     >>> np.round(t, 6).tolist(), q.shape
     ([[90.0, 45.0, 45.0]], (0, 4))
     """
-    return tuple(np.ascontiguousarray(_corners(points, cells).angle.T) for cells in (topo.tri, topo.quad))
+    pts = _unit(points)[0]
+    return tuple(np.ascontiguousarray(_corners(pts, cells).angle.T) for cells in (topo.tri, topo.quad))
 
 
 def cell_min_angles(points: np.ndarray, topo: CellTopology) -> np.ndarray:
@@ -58,7 +59,8 @@ def cell_min_angles(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     >>> cell_min_angles(m.points, build_topology(m)).round(6).tolist()
     [45.0, 90.0]
     """
-    t, q = (_corners(points, cells).angle for cells in (topo.tri, topo.quad))
+    pts = _unit(points)[0]
+    t, q = (_corners(pts, cells).angle for cells in (topo.tri, topo.quad))
     return np.concatenate([t.min(axis=0, initial=np.inf), q.min(axis=0, initial=np.inf)])
 
 
@@ -76,5 +78,6 @@ def cell_max_angles(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     >>> cell_max_angles(m.points, build_topology(m)).round(6).tolist()
     [90.0, 90.0]
     """
-    t, q = (_corners(points, cells).angle for cells in (topo.tri, topo.quad))
+    pts = _unit(points)[0]
+    t, q = (_corners(pts, cells).angle for cells in (topo.tri, topo.quad))
     return np.concatenate([t.max(axis=0, initial=-np.inf), q.max(axis=0, initial=-np.inf)])

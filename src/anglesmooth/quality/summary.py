@@ -7,8 +7,8 @@ from typing import Any
 import numpy as np
 
 from ..topology import CellTopology, signed_areas
-from ._corners import _corners, _tri_area
-from .validity import DEGENERATE_REL
+from ._corners import _corners, _tri_area, _unit
+from .validity import _degenerate_mask
 from .verdict import _quad_aspect, _quad_condition, _quad_jac, _tri_aspect, _tri_radius
 
 __all__ = ["METRICS", "summarize"]
@@ -30,9 +30,10 @@ METRICS: dict[str, str] = {
     "min_area": "smallest absolute cell area",
     "max_area": "largest absolute cell area",
     "area_ratio": "max_area / min_area; null when min_area is 0 (the ratio is infinite)",
-    "inverted": "number of cells with signed area <= 0 relative to the mesh orientation",
+    "inverted": "number of cells with signed area < 0 relative to the mesh orientation (orientation flipped; a zero-area cell is degenerate, not inverted)",
     "inverted_cells": "indices of the first 10 inverted cells (triangles first, then quads)",
-    "degenerate": "number of cells with |area| <= 1e-12 * (diagonal of the bounding box of all nodes)^2",
+    "degenerate": "number of cells that are not inverted and have area <= 1e-12 * (diagonal of the bounding box of all nodes)^2 (zero area or nearly)",
+    "degenerate_cells": "indices of the first 10 degenerate cells (triangles first, then quads)",
     "nonconvex_quads": "number of quads with positive area and a corner whose cross product is <= 0 (angle >= 180 or 0)",
     "tri_aspect_ratio": "Verdict triangle aspect ratio l_max*(l0+l1+l2)/(4*sqrt(3)*|A|), 1 ideal: {min, mean, max} or null",
     "tri_radius_ratio": "Verdict triangle radius ratio R/(2r) (circumradius over twice the inradius), 1 ideal: {min, mean, max} or null",
@@ -70,6 +71,14 @@ def _extreme(fn, *angles: np.ndarray) -> float | None:
     return float(value)
 
 
+def _unscaled(value: float | None, e: int) -> float | None:
+    """``value * 2**e``: a length or an area of the scaled coordinates in the units of the mesh (inf past 1e308)."""
+    if value is None or e == 0:
+        return value
+    with np.errstate(over="ignore", under="ignore"):
+        return float(np.ldexp(value, e))
+
+
 def summarize(points: np.ndarray, topo: CellTopology) -> dict[str, Any]:
     """Quality summary of a mesh as a JSON-ready dict (plain ints, floats, lists, None).
 
@@ -77,7 +86,10 @@ def summarize(points: np.ndarray, topo: CellTopology) -> dict[str, Any]:
     when the smallest area is 0 (JSON has no infinity); per-type angle entries
     and Verdict statistics are None when that cell type is absent.  Each
     corner's edge vectors are computed once and the angles, lengths and Verdict
-    measures are derived from them.
+    measures are derived from them, on the coordinates scaled by the power of two
+    that brings the bounding-box diagonal into [0.5, 1): the scaling is exact, so
+    the summary of a mesh scaled by 2**k is the same but for ``min_area``,
+    ``max_area`` (times 4**k) and ``min_edge`` (times 2**k), whatever k.
 
     Parameters
     ----------
@@ -100,7 +112,7 @@ def summarize(points: np.ndarray, topo: CellTopology) -> dict[str, Any]:
     >>> s["triangles"], s["min_angle"], s["max_angle"], s["angles_below_20"], s["area_ratio"], s["quad_min_angle"]
     (2, 45.0, 90.0, 0, 1.0, None)
     """
-    pts = np.asarray(points, dtype=np.float64)
+    pts, e = _unit(points)  # exact power-of-two scaling: no under- or overflow whatever the mesh size
     nt, nq = topo.n_tri, topo.n_quad
     ct = _corners(pts, topo.tri)
     cq = _corners(pts, topo.quad)
@@ -108,12 +120,8 @@ def summarize(points: np.ndarray, topo: CellTopology) -> dict[str, Any]:
     area = np.concatenate([at, aq])
     angles = [c.angle for c in (ct, cq) if c.angle.size]
     absa = np.abs(area)
-    inv = np.flatnonzero(area <= 0)
-    if pts.shape[0]:
-        x, y = pts[:, 0], pts[:, 1]
-        diag2 = float(((np.array([x.max(), y.max()]) - np.array([x.min(), y.min()])) ** 2).sum())
-    else:
-        diag2 = 0.0
+    inv = np.flatnonzero(area < 0)
+    deg = np.flatnonzero(_degenerate_mask(area, pts))
     edge_len = [c.length for c in (ct, cq) if c.length.size]
     min_edge = _extreme(np.min, *edge_len) if edge_len else None
     max_edge = _extreme(np.max, *edge_len) if edge_len else None
@@ -133,18 +141,19 @@ def summarize(points: np.ndarray, topo: CellTopology) -> dict[str, Any]:
         "angles_below_20": sum(int(np.count_nonzero(a < 20.0)) for a in angles),
         "angles_above_130": sum(int(np.count_nonzero(a > 130.0)) for a in angles),
         "angles_above_150": sum(int(np.count_nonzero(a > 150.0)) for a in angles),
-        "min_area": min_area,
-        "max_area": max_area,
+        "min_area": _unscaled(min_area, 2 * e),
+        "max_area": _unscaled(max_area, 2 * e),
         "area_ratio": (max_area / min_area) if min_area else None,
         "inverted": int(inv.size),
         "inverted_cells": inv[:10].tolist(),
-        "degenerate": int(np.count_nonzero(absa <= DEGENERATE_REL * diag2)),
+        "degenerate": int(deg.size),
+        "degenerate_cells": deg[:10].tolist(),
         "nonconvex_quads": int(np.count_nonzero((aq > 0) & (cq.cross <= 0).any(axis=0))),
         "tri_aspect_ratio": _stats(_tri_aspect(ct, at)),
         "tri_radius_ratio": _stats(_tri_radius(ct, at)),
         "quad_scaled_jacobian": _stats(_quad_jac(cq)),
         "quad_aspect_ratio": _stats(_quad_aspect(cq, aq)),
         "quad_condition": _stats(_quad_condition(cq)),
-        "min_edge": min_edge,
+        "min_edge": _unscaled(min_edge, e),
         "edge_ratio": (max_edge / min_edge) if min_edge else None,
     }

@@ -1,16 +1,36 @@
-"""Signed areas and what makes a cell invalid: inverted, degenerate, non-convex."""
+"""Signed areas and what makes a cell invalid: inverted, degenerate, non-convex.
+
+*Inverted* (signed area < 0: the orientation is flipped) and *degenerate* (0 <= signed area <=
+:data:`DEGENERATE_REL` x the squared bounding-box diagonal: zero area, or too little to tell) are
+disjoint: a cell is one, the other or valid.  Both are decided on coordinates scaled by a power of
+two (:func:`._corners._unit`, exact), so that a mesh of size 1e-100 is not read as all zero areas.
+:func:`invalid_cells`, the guard's test, is not scaled: it is what the smoothers check.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..topology import CellTopology, signed_areas
-from ._corners import _cross, _edges
+from ._corners import _cross, _edges, _unit
 
-__all__ = ["DEGENERATE_REL", "cell_areas", "invalid_cells", "inverted_cells", "nonconvex_quads"]
+__all__ = ["DEGENERATE_REL", "cell_areas", "degenerate_cells", "invalid_cells", "inverted_cells", "nonconvex_quads"]
 
-#: Relative area below which a cell counts as degenerate: |A| <= DEGENERATE_REL * diag(bbox)^2.
+#: Relative area up to which a cell that is not inverted counts as degenerate: 0 <= A <= DEGENERATE_REL * diag(bbox)^2.
 DEGENERATE_REL = 1.0e-12
+
+
+def _diag2(pts: np.ndarray) -> float:
+    """Squared diagonal of the bounding box of all nodes (0 without nodes)."""
+    if not pts.shape[0]:
+        return 0.0
+    x, y = pts[:, 0], pts[:, 1]
+    return float(((np.array([x.max(), y.max()]) - np.array([x.min(), y.min()])) ** 2).sum())
+
+
+def _degenerate_mask(area: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Degenerate cells among signed areas ``area`` of cells on nodes ``pts``: 0 <= area <= DEGENERATE_REL * diag^2."""
+    return (area >= 0) & (area <= DEGENERATE_REL * _diag2(pts))
 
 
 def cell_areas(points: np.ndarray, topo: CellTopology) -> np.ndarray:
@@ -32,7 +52,9 @@ def cell_areas(points: np.ndarray, topo: CellTopology) -> np.ndarray:
 
 
 def inverted_cells(points: np.ndarray, topo: CellTopology) -> np.ndarray:
-    """Indices of the cells (triangles, then quads) with signed area <= 0.
+    """Indices of the cells (triangles, then quads) with signed area < 0: orientation flipped.
+
+    A cell of zero area is degenerate (:func:`degenerate_cells`), not inverted.
 
     Examples
     --------
@@ -46,14 +68,35 @@ def inverted_cells(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     >>> inverted_cells(moved, topo).tolist()
     [0]
     """
-    return np.flatnonzero(cell_areas(points, topo) <= 0)
+    return np.flatnonzero(cell_areas(_unit(points)[0], topo) < 0)
+
+
+def degenerate_cells(points: np.ndarray, topo: CellTopology) -> np.ndarray:
+    """Indices of the cells (triangles, then quads) of zero or nearly zero area that are not inverted.
+
+    ``0 <= A <= DEGENERATE_REL * d^2`` with A the signed area and d the diagonal of the bounding
+    box of all nodes: a collapsed cell (three collinear nodes, a repeated node) or one too thin to
+    tell from it.  Disjoint from :func:`inverted_cells` (A < 0).
+
+    Examples
+    --------
+    >>> from anglesmooth.mesh import Mesh2D
+    >>> from anglesmooth.topology import build_topology
+    >>> m = Mesh2D.from_arrays([[0, 0], [1, 0], [2, 0], [0, 1]], triangles=[[0, 1, 3], [0, 1, 2]])
+    >>> topo = build_topology(m)
+    >>> degenerate_cells(m.points, topo).tolist(), inverted_cells(m.points, topo).tolist()
+    ([1], [])
+    """
+    pts = _unit(points)[0]
+    return np.flatnonzero(_degenerate_mask(cell_areas(pts, topo), pts))
 
 
 def invalid_cells(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     """Mask (triangles, then quads) of cells a guarded smoother must not create.
 
     A cell is invalid when some corner has ``cross(next - v, prev - v) <= 0``
-    (or NaN): inverted and degenerate cells, and non-convex quads.
+    (or NaN): inverted and degenerate cells, and non-convex quads.  Computed on
+    ``points`` as they are (not scaled): the test the smoothers' guard applies.
 
     Examples
     --------
@@ -71,8 +114,8 @@ def nonconvex_quads(points: np.ndarray, topo: CellTopology) -> np.ndarray:
 
     A quad is non-convex when its signed area is positive and at least one
     corner has ``cross(next - v, prev - v) <= 0`` (corner angle >= 180 or 0,
-    bow-ties included).  Quads with signed area <= 0 are inverted, not
-    non-convex.
+    bow-ties included).  Quads with signed area < 0 are inverted and quads of
+    zero area degenerate, not non-convex.
 
     Examples
     --------
@@ -82,6 +125,7 @@ def nonconvex_quads(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     >>> nonconvex_quads(dart.points, build_topology(dart)).tolist()
     [0]
     """
-    cross = _cross(*_edges(points, topo.quad))
-    area = signed_areas(np.asarray(points, dtype=np.float64), topo.tri[:0], topo.quad)
+    pts = _unit(points)[0]
+    cross = _cross(*_edges(pts, topo.quad))
+    area = signed_areas(pts, topo.tri[:0], topo.quad)
     return np.flatnonzero((area > 0) & (cross <= 0).any(axis=0))

@@ -1,19 +1,26 @@
 """Verdict measures (Stimpson et al., SAND2007-1751, as in VTK's ``vtkMeshQuality``): aspect and radius
-ratios of triangles, scaled Jacobian, condition and aspect ratio of quads."""
+ratios of triangles, scaled Jacobian, condition and aspect ratio of quads.
+
+Every measure is computed on the coordinates scaled by the power of two that brings the bounding-box
+diagonal into [0.5, 1) (:func:`._corners._unit`, exact): the ratios are those of the mesh as given,
+without the overflow of four multiplied lengths on a mesh of size 1e+80 or the underflow of a squared
+area on one of size 1e-80, and Verdict's smallest cross product ``VERDICT_DBL_MIN`` (quad condition)
+is relative to the squared size of the mesh, not absolute.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..topology import CellTopology, signed_areas
-from ._corners import _corners, _Corners, _tri_area
+from ._corners import _corners, _Corners, _tri_area, _unit
 
 __all__ = ["VERDICT_DBL_MAX", "quad_aspect_ratio", "quad_condition", "quad_scaled_jacobian", "tri_aspect_ratio",
            "tri_radius_ratio"]
 
 #: Value Verdict (and VTK) return for a ratio whose denominator vanishes.
 VERDICT_DBL_MAX = 1.0e30
-_DBL_MIN = 1.0e-30  # Verdict's VERDICT_DBL_MIN
+_DBL_MIN = 1.0e-30  # Verdict's VERDICT_DBL_MIN, applied to the scaled coordinates (x the squared mesh size)
 
 
 def _cap(num: np.ndarray, den: np.ndarray) -> np.ndarray:
@@ -88,7 +95,7 @@ def tri_aspect_ratio(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     >>> tri_aspect_ratio(m.points, build_topology(m)).round(12).tolist()
     [1.0]
     """
-    c = _corners(points, topo.tri)
+    c = _corners(_unit(points)[0], topo.tri)
     return _tri_aspect(c, _tri_area(c))
 
 
@@ -108,7 +115,7 @@ def tri_radius_ratio(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     >>> tri_radius_ratio(m.points, build_topology(m)).round(12).tolist()  # (1 + sqrt(2)) / 2
     [1.207106781187]
     """
-    c = _corners(points, topo.tri)
+    c = _corners(_unit(points)[0], topo.tri)
     return _tri_radius(c, _tri_area(c))
 
 
@@ -130,18 +137,20 @@ def quad_scaled_jacobian(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     >>> quad_scaled_jacobian(m.points, build_topology(m)).round(12).tolist()  # sin 45
     [0.707106781187]
     """
-    return _quad_jac(_corners(points, topo.quad))
+    return _quad_jac(_corners(_unit(points)[0], topo.quad))
 
 
 def quad_condition(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     """Verdict quad condition per quad, (n_quad,): 1 for a square, large for a thin or skewed quad.
 
     Half the largest ``(|e_prev|^2 + |e_next|^2) / cross(e_prev, e_next)`` over the corners, as in
-    vtkMeshQuality's ``Condition``; VERDICT_DBL_MAX where a corner's cross product is not positive.
+    vtkMeshQuality's ``Condition``; VERDICT_DBL_MAX where a corner's cross product is not above 1e-30 x
+    the squared mesh size (Verdict: 1e-30 in absolute units, so VTK calls every quad of a mesh of size
+    1e-16 degenerate).
     Unlike the angles and the scaled Jacobian it sees a quad flattened while keeping its right
     angles (a collapsing boundary-layer cell).
     """
-    return _quad_condition(_corners(points, topo.quad))
+    return _quad_condition(_corners(_unit(points)[0], topo.quad))
 
 
 def quad_aspect_ratio(points: np.ndarray, topo: CellTopology) -> np.ndarray:
@@ -159,6 +168,7 @@ def quad_aspect_ratio(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     >>> quad_aspect_ratio(m.points, build_topology(m)).tolist()  # 2 * 6 / (4 * 2)
     [1.5]
     """
-    c = _corners(points, topo.quad)
-    area = signed_areas(np.asarray(points, dtype=np.float64), topo.tri[:0], topo.quad)
+    pts = _unit(points)[0]
+    c = _corners(pts, topo.quad)
+    area = signed_areas(pts, topo.tri[:0], topo.quad)
     return _quad_aspect(c, area)
