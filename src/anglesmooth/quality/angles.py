@@ -41,8 +41,7 @@ def corner_angles(points: np.ndarray, topo: CellTopology) -> tuple[np.ndarray, n
     >>> np.round(t, 6).tolist(), q.shape
     ([[90.0, 45.0, 45.0]], (0, 4))
     """
-    pts = _unit(points)[0]
-    return tuple(np.ascontiguousarray(_corners(pts, cells).angle.T) for cells in (topo.tri, topo.quad))
+    return tuple(np.ascontiguousarray(a.T) for a in _angle_rows(points, topo))
 
 
 def cell_min_angles(points: np.ndarray, topo: CellTopology) -> np.ndarray:
@@ -59,8 +58,7 @@ def cell_min_angles(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     >>> cell_min_angles(m.points, build_topology(m)).round(6).tolist()
     [45.0, 90.0]
     """
-    pts = _unit(points)[0]
-    t, q = (_corners(pts, cells).angle for cells in (topo.tri, topo.quad))
+    t, q = _angle_rows(points, topo)
     return np.concatenate([t.min(axis=0, initial=np.inf), q.min(axis=0, initial=np.inf)])
 
 
@@ -78,6 +76,11 @@ def cell_max_angles(points: np.ndarray, topo: CellTopology) -> np.ndarray:
     >>> cell_max_angles(m.points, build_topology(m)).round(6).tolist()
     [90.0, 90.0]
     """
-    pts = _unit(points)[0]
-    t, q = (_corners(pts, cells).angle for cells in (topo.tri, topo.quad))
+    t, q = _angle_rows(points, topo)
     return np.concatenate([t.max(axis=0, initial=-np.inf), q.max(axis=0, initial=-np.inf)])
+
+
+def _angle_rows(points: np.ndarray, topo: CellTopology) -> tuple[np.ndarray, np.ndarray]:
+    """Corner angles (degrees) of the triangles and of the quads as (k, n) rows, on the scaled points."""
+    pts = _unit(points)[0]
+    return tuple(_corners(pts, cells).angle for cells in (topo.tri, topo.quad))

@@ -102,7 +102,7 @@ CHUNKS_PER_THREAD = 4
 #: only for the estimate that :func:`compile_estimate` gives before a run; unknown kernels count
 #: :data:`_DEFAULT_COMPILE_S`.  ``_node_score`` is compiled once per process, by the first kernel
 #: that calls it (``angle_choose`` in a default run: 2.1 s with it, ``compass`` then 0.7 s); each
-#: figure here counts it, so an estimate over several kernels is on the safe side.  
+#: figure here counts it, so an estimate over several kernels is on the safe side.
 #: ``_cell_area_range`` (:func:`area_limits`) is a mesh-wide loop, not split per node (hence private).
 COMPILE_S = {"angle_choose": 2.2, "compass": 1.5, "score": 0.7, "ring_mean": 0.3, "angle_target": 0.6,
              "_cell_area_range": 0.2}
