@@ -753,3 +753,14 @@ def test_truncated_gmsh_file_says_truncated(tmp_path):
     cut.write_text(text[: text.index("$EndNodes") // 2 + len(text[: text.index("$Nodes")]) // 2])
     with pytest.raises(MeshReadError, match=r"not a valid gmsh file \((truncated or corrupt; |.*: truncated or corrupt)"):
         read(cut)
+
+
+def test_coordinate_limit_is_defined_once():
+    """meshconv (reading a file) and Mesh2D (building from arrays) refuse coordinates by the same limit."""
+    from anglesmooth import mesh, meshconv
+
+    assert meshconv.MAX_COORD is mesh.MAX_COORD
+    assert not re.search(r"^\s*_?MAX_COORD\s*=", Path(meshconv.__file__).read_text(encoding="utf-8"), flags=re.M)
+    m = meshio.Mesh(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 2 * mesh.MAX_COORD]]), [("triangle", [[0, 1, 2]])])
+    with pytest.raises(Exception, match=re.escape(f"(limit {mesh.MAX_COORD:g})")):
+        meshconv.as_mesh2d(m)
