@@ -654,18 +654,19 @@ NOTES = [
     "* **Duplicate nodes** are allowed. A duplicate that no cell uses is an unused node: fixed, never moved. "
     "Duplicates used on both sides of a line of cells make a slit whose sides are boundaries: fixed.",
     "* **Unused nodes** are allowed, fixed and bit-identical in the output.",
-    "* **Zero-area cells** are counted as inverted (`inverted`, `inverted_cells` in the JSON report, a warning on "
-    "stderr). A collinear triangle with a free node is opened up by the guarded methods; a cell with a repeated "
-    "node cannot be and stays degenerate.",
+    "* **Zero-area cells** (0 <= signed area <= 1e-12 x the bounding-box diagonal squared) are *degenerate*, not "
+    "inverted (inverted means signed area < 0; the two are disjoint): `degenerate`, `degenerate_cells` in the "
+    "JSON report, a warning on stderr. A collinear triangle with a free node is "
+    "opened up by the guarded methods; a cell with a repeated node cannot be and stays degenerate.",
     "* **Clockwise cells** (some or all) are re-oriented internally per connected patch; the written file keeps "
     "the input's node order.",
     "* **Tangled input** is accepted with a warning (count and first indices). With the guard (default), a move "
     "is scored by the number of invalid (inverted, degenerate or non-convex) incident cells first, so the guarded "
     "methods never increase that number and pull a folded node back into its ring when a candidate position has "
-    "fewer invalid cells: `angle`, `laplacian` and `smart-laplacian` untangle a single fold completely "
-    "(`tangled`: 2 -> 0). They are not global untanglers: a node whose candidates are all as bad stays. "
-    "`optimization` starts its compass search at the folded position and does not untangle a fold; it can "
-    "also trade a non-convex quad for an inverted cell (tests/test_properties.py).",
+    "fewer invalid cells: every guarded method untangles a single fold completely (`tangled`: 2 -> 0; "
+    "`optimization` and `smart-laplacian` through their untangling stage, which also tries the centroid of the "
+    "node's kernel, the positions where all its cells are valid: issue 12). They are not global untanglers: a "
+    "node whose candidates are all as bad stays (tests/test_properties.py).",
     "* **Read-only output directory**: as root, `chmod` does not stop writes. `afile.txt/out.vtu` (a path under "
     "a regular file) and `/sys/...` (no file can be created there) stand in for it. Both give exit 3, and no "
     "output or temporary file is left.",
@@ -689,14 +690,18 @@ NOTES = [
 ]
 
 
-def test_bad_inputs_table_is_current():
-    """Every corpus case is in BAD_INPUTS.md with its exit code, in corpus order."""
+def test_bad_inputs_table_is_current(tmp_path):
+    """BAD_INPUTS.md is what ``python tests/test_bad_input.py`` writes today: every row (exit code *and* message,
+    in corpus order) and the decisions; a changed message or decision needs the table regenerated."""
     text = TABLE.read_text(encoding="utf-8")
     rows = re.findall(r"^\| `([^`]+)` \| .* \| (\d+) \| (.*) \|$", text, flags=re.M)
     assert [(i, int(c)) for i, c, _ in rows] == [(c.id, c.code) for c in CASES]
     for (i, _, msg), case in zip(rows, CASES):
         assert case.needle in msg, (i, msg)
         assert msg.startswith(PREFIX) == (case.code != 0)
+    now = render(table_rows(tmp_path)).splitlines()
+    stale = [(old, new) for old, new in zip(text.splitlines(), now) if old != new]
+    assert not stale and len(now) == len(text.splitlines()), stale[:3]
 
 
 if __name__ == "__main__":
