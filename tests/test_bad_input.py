@@ -656,7 +656,7 @@ NOTES = [
     "* **Unused nodes** are allowed, fixed and bit-identical in the output.",
     "* **Zero-area cells** (0 <= signed area <= 1e-12 x the bounding-box diagonal squared) are *degenerate*, not "
     "inverted (inverted means signed area < 0; the two are disjoint): `degenerate`, `degenerate_cells` in the "
-    "JSON report, a warning on stderr. A collinear triangle with a free node is "
+    "JSON report, a warning on stderr, their own colour in `--plot`. A collinear triangle with a free node is "
     "opened up by the guarded methods; a cell with a repeated node cannot be and stays degenerate.",
     "* **Clockwise cells** (some or all) are re-oriented internally per connected patch; the written file keeps "
     "the input's node order.",
