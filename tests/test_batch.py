@@ -331,7 +331,7 @@ def test_interrupting_a_pool_run_leaves_no_partial_output(tmp_path, sig):
         proc.kill()
         raise AssertionError("".join(lines))
     proc.send_signal(sig)
-    stdout, rest = proc.communicate(timeout=120)
+    stdout, rest = proc.communicate(timeout=600)
     stderr = "".join(lines) + rest
     assert proc.returncode == {signal.SIGINT: 130, signal.SIGTERM: 143}[sig], stderr
     assert error_lines(stderr) == [f"anglesmooth: error: {'interrupted' if sig == signal.SIGINT else 'terminated'}"]
