@@ -335,6 +335,11 @@ def corpus() -> list[Case]:
         Case("json-is-gate-file", "--json names the --gate-file", vtu(P3, [("triangle", T)]), 2,
              "is the same file as --gate-file", args=("--gate-file", "{d}/g.toml", "--json", "{d}/g.toml"),
              prepare=file_named("g.toml", b"min_angle = 1\n")),
+        Case("h5-beside-output-is-gate-file", "OUTPUT out.xdmf, whose HDF5 data out.h5 is the --gate-file",
+             vtu(P3, [("triangle", T)]), 2, "out.h5' is the same file as --gate-file",
+             output="out.xdmf", args=("--gate-file", "{d}/out.h5"), prepare=file_named("out.h5", b"min_angle = 1\n")),
+        Case("json-is-h5-beside-output", "--json out.h5 with OUTPUT out.xdmf (its HDF5 data)",
+             vtu(P3, [("triangle", T)]), 2, "are the same file", output="out.xdmf", args=("--json", "{d}/out.h5")),
         Case("json-missing-dir", "--json in a missing directory", vtu(P3, [("triangle", T)]), 3,
              "cannot write JSON report", args=("--json", "{d}/nodir/r.json")),
         Case("json-in-sys", "--json in /sys", vtu(P3, [("triangle", T)]), 3,
@@ -676,6 +681,8 @@ NOTES = [
     "* **Output paths** (issue 13): OUTPUT, `--json` and `--plot` must each differ from every input (INPUT, "
     "`--fix-nodes`, `--gate-file`) and from each other, compared by resolved path *and* inode, so a hard link "
     "or a symlink to the input is the input (exit 2; OUTPUT may be the input with `--force` / `--in-place`). "
+    "The `.h5` an XDMF OUTPUT writes beside itself (`out.xdmf` -> `out.h5`) is an output too: it may not be an "
+    "input or another output (`--json out.h5`; for several INPUTs, `a.xdmf` and `a.xmf` in one directory). "
     "Every output path is checked before the input is read (missing directory, a directory, not creatable: "
     "exit 3), so a bad `--plot` path no longer leaves the mesh behind. A device such as `/dev/full` is written "
     "into and stays a device (exit 3 when it is full). The cases that need a real process (closed stdin / "
