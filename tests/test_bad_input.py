@@ -335,6 +335,11 @@ def corpus() -> list[Case]:
         Case("json-is-gate-file", "--json names the --gate-file", vtu(P3, [("triangle", T)]), 2,
              "is the same file as --gate-file", args=("--gate-file", "{d}/g.toml", "--json", "{d}/g.toml"),
              prepare=file_named("g.toml", b"min_angle = 1\n")),
+        Case("h5-beside-output-is-gate-file", "OUTPUT out.xdmf, whose HDF5 data out.h5 is the --gate-file",
+             vtu(P3, [("triangle", T)]), 2, "out.h5' is the same file as --gate-file",
+             output="out.xdmf", args=("--gate-file", "{d}/out.h5"), prepare=file_named("out.h5", b"min_angle = 1\n")),
+        Case("json-is-h5-beside-output", "--json out.h5 with OUTPUT out.xdmf (its HDF5 data)",
+             vtu(P3, [("triangle", T)]), 2, "are the same file", output="out.xdmf", args=("--json", "{d}/out.h5")),
         Case("json-missing-dir", "--json in a missing directory", vtu(P3, [("triangle", T)]), 3,
              "cannot write JSON report", args=("--json", "{d}/nodir/r.json")),
         Case("json-in-sys", "--json in /sys", vtu(P3, [("triangle", T)]), 3,
@@ -654,18 +659,19 @@ NOTES = [
     "* **Duplicate nodes** are allowed. A duplicate that no cell uses is an unused node: fixed, never moved. "
     "Duplicates used on both sides of a line of cells make a slit whose sides are boundaries: fixed.",
     "* **Unused nodes** are allowed, fixed and bit-identical in the output.",
-    "* **Zero-area cells** are counted as inverted (`inverted`, `inverted_cells` in the JSON report, a warning on "
-    "stderr). A collinear triangle with a free node is opened up by the guarded methods; a cell with a repeated "
-    "node cannot be and stays degenerate.",
+    "* **Zero-area cells** (0 <= signed area <= 1e-12 x the bounding-box diagonal squared) are *degenerate*, not "
+    "inverted (inverted means signed area < 0; the two are disjoint): `degenerate`, `degenerate_cells` in the "
+    "JSON report, a warning on stderr, their own colour in `--plot`. A collinear triangle with a free node is "
+    "opened up by the guarded methods; a cell with a repeated node cannot be and stays degenerate.",
     "* **Clockwise cells** (some or all) are re-oriented internally per connected patch; the written file keeps "
     "the input's node order.",
     "* **Tangled input** is accepted with a warning (count and first indices). With the guard (default), a move "
     "is scored by the number of invalid (inverted, degenerate or non-convex) incident cells first, so the guarded "
     "methods never increase that number and pull a folded node back into its ring when a candidate position has "
-    "fewer invalid cells: `angle`, `laplacian` and `smart-laplacian` untangle a single fold completely "
-    "(`tangled`: 2 -> 0). They are not global untanglers: a node whose candidates are all as bad stays. "
-    "`optimization` starts its compass search at the folded position and does not untangle a fold; it can "
-    "also trade a non-convex quad for an inverted cell (tests/test_properties.py).",
+    "fewer invalid cells: every guarded method untangles a single fold completely (`tangled`: 2 -> 0; "
+    "`optimization` and `smart-laplacian` through their untangling stage, which also tries the centroid of the "
+    "node's kernel, the positions where all its cells are valid: issue 12). They are not global untanglers: a "
+    "node whose candidates are all as bad stays (tests/test_properties.py).",
     "* **Read-only output directory**: as root, `chmod` does not stop writes. `afile.txt/out.vtu` (a path under "
     "a regular file) and `/sys/...` (no file can be created there) stand in for it. Both give exit 3, and no "
     "output or temporary file is left.",
@@ -675,6 +681,8 @@ NOTES = [
     "* **Output paths** (issue 13): OUTPUT, `--json` and `--plot` must each differ from every input (INPUT, "
     "`--fix-nodes`, `--gate-file`) and from each other, compared by resolved path *and* inode, so a hard link "
     "or a symlink to the input is the input (exit 2; OUTPUT may be the input with `--force` / `--in-place`). "
+    "The `.h5` an XDMF OUTPUT writes beside itself (`out.xdmf` -> `out.h5`) is an output too: it may not be an "
+    "input or another output (`--json out.h5`; for several INPUTs, `a.xdmf` and `a.xmf` in one directory). "
     "Every output path is checked before the input is read (missing directory, a directory, not creatable: "
     "exit 3), so a bad `--plot` path no longer leaves the mesh behind. A device such as `/dev/full` is written "
     "into and stays a device (exit 3 when it is full). The cases that need a real process (closed stdin / "
@@ -689,14 +697,18 @@ NOTES = [
 ]
 
 
-def test_bad_inputs_table_is_current():
-    """Every corpus case is in BAD_INPUTS.md with its exit code, in corpus order."""
+def test_bad_inputs_table_is_current(tmp_path):
+    """BAD_INPUTS.md is what ``python tests/test_bad_input.py`` writes today: every row (exit code *and* message,
+    in corpus order) and the decisions; a changed message or decision needs the table regenerated."""
     text = TABLE.read_text(encoding="utf-8")
     rows = re.findall(r"^\| `([^`]+)` \| .* \| (\d+) \| (.*) \|$", text, flags=re.M)
     assert [(i, int(c)) for i, c, _ in rows] == [(c.id, c.code) for c in CASES]
     for (i, _, msg), case in zip(rows, CASES):
         assert case.needle in msg, (i, msg)
         assert msg.startswith(PREFIX) == (case.code != 0)
+    now = render(table_rows(tmp_path)).splitlines()
+    stale = [(old, new) for old, new in zip(text.splitlines(), now) if old != new]
+    assert not stale and len(now) == len(text.splitlines()), stale[:3]
 
 
 if __name__ == "__main__":
@@ -753,3 +765,14 @@ def test_truncated_gmsh_file_says_truncated(tmp_path):
     cut.write_text(text[: text.index("$EndNodes") // 2 + len(text[: text.index("$Nodes")]) // 2])
     with pytest.raises(MeshReadError, match=r"not a valid gmsh file \((truncated or corrupt; |.*: truncated or corrupt)"):
         read(cut)
+
+
+def test_coordinate_limit_is_defined_once():
+    """meshconv (reading a file) and Mesh2D (building from arrays) refuse coordinates by the same limit."""
+    from anglesmooth import mesh, meshconv
+
+    assert meshconv.MAX_COORD is mesh.MAX_COORD
+    assert not re.search(r"^\s*_?MAX_COORD\s*=", Path(meshconv.__file__).read_text(encoding="utf-8"), flags=re.M)
+    m = meshio.Mesh(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 2 * mesh.MAX_COORD]]), [("triangle", [[0, 1, 2]])])
+    with pytest.raises(Exception, match=re.escape(f"(limit {mesh.MAX_COORD:g})")):
+        meshconv.as_mesh2d(m)

@@ -331,7 +331,7 @@ def test_interrupting_a_pool_run_leaves_no_partial_output(tmp_path, sig):
         proc.kill()
         raise AssertionError("".join(lines))
     proc.send_signal(sig)
-    stdout, rest = proc.communicate(timeout=120)
+    stdout, rest = proc.communicate(timeout=600)
     stderr = "".join(lines) + rest
     assert proc.returncode == {signal.SIGINT: 130, signal.SIGTERM: 143}[sig], stderr
     assert error_lines(stderr) == [f"anglesmooth: error: {'interrupted' if sig == signal.SIGINT else 'terminated'}"]
@@ -454,3 +454,25 @@ def test_bench_batch_tiny(tmp_path):
     assert all(r["identical"] and r["files_per_s"] > 0 for r in rows)  # every way wrote the same files
     assert "| meshes | way | wall (s) | files/s |" in res.stdout
     assert sorted(os.listdir(tmp_path)) == ["bench.json"]  # meshes went to a temporary directory
+
+
+def test_the_h5_of_an_xdmf_output_is_an_output(tmp_path, monkeypatch):
+    """An XDMF output writes NAME.h5 beside itself: two outputs sharing one, or --json naming one, are refused
+    before any work (the second file's data replaced the first's; the JSON replaced the mesh data)."""
+    from anglesmooth.filesets import hdf5_sibling, plan_outputs
+
+    assert hdf5_sibling("d/a.xdmf") == os.path.join("d", "a.h5") and hdf5_sibling("d/a.XMF") is not None
+    assert hdf5_sibling("d/a.vtu") is None
+    with pytest.raises(BatchError, match=r"HDF5 data of 'out/a.xmf' .* over the output of 'in/a.xdmf'"):
+        plan_outputs(["in/a.xdmf", "in/a.xmf"], ["out/a.xdmf", "out/a.xmf"], False)
+    with pytest.raises(BatchError, match=r"over the input 'in/b.h5'"):
+        plan_outputs(["in/b.h5", "in/c.vtu"], ["in/b_s.h5", "in/b.xdmf"], False)
+    plan_outputs(["in/a.xdmf", "in/b.xdmf"], ["in/a.xdmf", "in/b.xdmf"], True)  # in place: their own data
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "in").mkdir()
+    for name in ("a", "b"):
+        write(paper_triangle_mesh(seed=1), tmp_path / "in" / f"{name}.vtu")
+    before = sorted(os.listdir(tmp_path))
+    r = run("in/a.vtu", "in/b.vtu", "--output-dir", "out", "--output-format", "xdmf", "--json", "out/a.h5")
+    assert r.exit_code == 2 and "is one of the mesh files" in r.stderr
+    assert sorted(os.listdir(tmp_path)) == before  # no out/ either

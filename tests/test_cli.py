@@ -82,6 +82,14 @@ def test_help_lists_commands_and_default_usage():
         assert word in result.stdout
 
 
+@pytest.mark.parametrize("command", ["smooth", "check", "compare", "schema"])
+def test_help_of_every_command_is_clean(command):
+    """No click artefacts in --help (an unbounded number range was shown as '[x<=None]')."""
+    result = run(command, "--help")
+    assert result.exit_code == 0 and result.stdout.startswith("Usage: ") and f" {command} " in result.stdout
+    assert "None" not in result.stdout
+
+
 def test_version():
     result = run("--version")
     assert result.exit_code == 0 and anglesmooth.__version__ in result.stdout

@@ -17,7 +17,7 @@ from anglesmooth import generate as gen  # noqa: E402
 from anglesmooth import meshplot, plot  # noqa: E402
 from anglesmooth.errors import AngleSmoothError  # noqa: E402
 from anglesmooth.mesh import Mesh2D  # noqa: E402
-from anglesmooth.quality import cell_areas, cell_max_angles, cell_min_angles  # noqa: E402
+from anglesmooth.quality import cell_areas, cell_max_angles, cell_min_angles, inverted_cells  # noqa: E402
 from anglesmooth.topology import build_cell_topology  # noqa: E402
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -149,7 +149,7 @@ def test_zoom_without_inverted_cells_is_on_the_smallest_minimum_angle():
 
 def test_inverted_cells_are_black_and_crossed(large, large_fig):
     m, topo, after = large
-    bad = np.flatnonzero(cell_areas(after, topo) <= 0)
+    bad = inverted_cells(after, topo)
     ax = _by_label(large_fig, "mesh after")
     (crosses,) = _gid(ax, "inverted")
     np.testing.assert_allclose(np.c_[crosses.get_xdata(), crosses.get_ydata()],
@@ -321,11 +321,11 @@ def test_inverted_cells_are_counted_in_the_titles(small_fig):
     m, topo, fig = small_fig
     after = _moved(m)  # the coordinates small_fig was drawn with (same seed)
     for stage, pts in (("before", m.points), ("after", after)):
-        n_bad = int((cell_areas(pts, topo) <= 0).sum())
+        n_bad = int(inverted_cells(pts, topo).size)
         title = _by_label(fig, f"mesh {stage}").get_title()
         assert (f"{n_bad} inverted" in title) if n_bad else ("inverted" not in title)
     if topo.n_quad == 0:
-        assert (cell_areas(after, topo) <= 0).any()  # the jitter folds some triangles: the case is exercised
+        assert inverted_cells(after, topo).size  # the jitter folds some triangles: the case is exercised
 
 
 def test_plot_compare_png(tmp_path):
@@ -353,3 +353,40 @@ def test_paper_figures_helper_draws_every_edge():
     assert len(edges.get_segments()) == topo.n_edges
     x0, x1 = ax.get_xlim()
     assert x0 <= m.points[:, 0].min() and x1 >= m.points[:, 0].max()
+
+
+def test_degenerate_cells_have_their_own_colour_marker_and_legend():
+    """Zero-area cells are not inverted (the report keeps the two apart): own fill colour, plus marker, legend
+    entry, title count; inverted cells stay black and crossed."""
+    from matplotlib.colors import to_rgba
+
+    from anglesmooth.quality import degenerate_cells, inverted_cells
+
+    pts = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.5]], dtype=float)
+    m = Mesh2D.from_arrays(pts, triangles=[[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
+    topo = build_cell_topology(m)
+    flat, folded = pts.copy(), pts.copy()
+    flat[4] = [0.5, 0.0]  # cell 0 collinear: degenerate, not inverted
+    folded[4] = [0.5, -0.2]  # cell 0 inverted
+    assert degenerate_cells(flat, topo).tolist() == [0] and inverted_cells(flat, topo).size == 0
+    assert inverted_cells(folded, topo).tolist() == [0] and degenerate_cells(folded, topo).size == 0
+    fig = plot.smooth_figure(topo, flat, folded)
+    before, after = _by_label(fig, "mesh before"), _by_label(fig, "mesh after")
+    (plus,) = _gid(before, "degenerate")
+    np.testing.assert_allclose(np.c_[plus.get_xdata(), plus.get_ydata()], plot._centroids(flat, topo)[[0]])
+    assert not _gid(before, "inverted") and not _gid(after, "degenerate")
+    (cross,) = _gid(after, "inverted")
+    np.testing.assert_allclose(np.c_[cross.get_xdata(), cross.get_ydata()], plot._centroids(folded, topo)[[0]])
+    rgba = {s: _gid(ax, "cells")[0].rgba for s, ax in (("before", before), ("after", after))}
+    np.testing.assert_allclose(rgba["before"][0], to_rgba(plot.DEGENERATE_COLOUR))
+    np.testing.assert_allclose(rgba["after"][0], to_rgba("black"))
+    assert not np.all(rgba["before"][1:, :3] == 0, axis=1).any()  # no other cell black before
+    assert "1 degenerate" in before.get_title() and "inverted" not in before.get_title()
+    assert "1 inverted" in after.get_title() and "degenerate" not in after.get_title()
+    legend = [t.get_text() for lg in fig.legends for t in lg.get_texts()]
+    assert "degenerate cells (zero area)" in legend and "inverted cells (area < 0)" in legend
+    hist = [t.get_text() for t in _by_label(fig, "hist min").get_legend().get_texts()]
+    assert hist == ["before (1 degenerate not shown)", "after (1 inverted not shown)"]
+    assert [t.get_text() for t in _by_label(fig, "zoom before").texts] == ["degenerate"]
+    cbar = [a for a in fig.axes if "cell minimum angle" in a.get_ylabel()]
+    assert cbar and "cyan: degenerate" in cbar[0].get_ylabel() and "black: inverted" in cbar[0].get_ylabel()

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import pytest
 
+from anglesmooth._signals import RETRY_S
 from anglesmooth.generate import random_delaunay
 from anglesmooth.io import write
 
@@ -83,7 +84,7 @@ def _start(argv: list[str], cwd: Path) -> subprocess.Popen:
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
-def _wait_for(proc: subprocess.Popen, needle: str, timeout: float = 120.0) -> list[str]:
+def _wait_for(proc: subprocess.Popen, needle: str, timeout: float = 600.0) -> list[str]:
     """Read stderr lines until one contains ``needle``; return the lines read."""
     lines: list[str] = []
     deadline = time.monotonic() + timeout
@@ -100,7 +101,7 @@ def _wait_for(proc: subprocess.Popen, needle: str, timeout: float = 120.0) -> li
 
 def _finish(proc: subprocess.Popen, sig: signal.Signals, earlier: list[str]) -> None:
     proc.send_signal(sig)
-    stdout, rest = proc.communicate(timeout=60)
+    stdout, rest = proc.communicate(timeout=600)  # generous: a loaded machine, a deferred signal
     stderr = "".join(earlier) + rest
     code, word = EXIT[sig]
     assert proc.returncode == code, stderr
@@ -154,28 +155,52 @@ def test_signal_during_the_write_keeps_the_old_output(big, tmp_path, sig):
     assert _digest(src) == digest
 
 
+def _frame(filename, back=None):
+    import types
+
+    return types.SimpleNamespace(f_code=types.SimpleNamespace(co_filename=filename), f_back=back)
+
+
+#: A signal arriving while numba compiles: llvmlite's frames on top of numba's on top of ours.
+COMPILING = _frame(f"{os.sep}site-packages{os.sep}llvmlite{os.sep}binding{os.sep}executionengine.py",
+                   _frame(f"{os.sep}site-packages{os.sep}numba{os.sep}core{os.sep}compiler.py", _frame("driver.py")))
+
+
+def _deferring(monkeypatch, handler, raised, sig=signal.SIGTERM):
+    """``handler`` (a ``_signals.Deferred``) defers ``sig`` while compiling, then raises ``raised``."""
+    armed = []
+    monkeypatch.setattr(signal, "setitimer", lambda which, seconds: armed.append(seconds))
+    monkeypatch.setattr(signal, "signal", lambda sig, handler: None)
+    monkeypatch.setattr(handler, "pending", [])
+    handler(sig, COMPILING)  # deferred: no exception inside the compiler
+    assert handler.pending == [sig] and armed == [RETRY_S]
+    handler.retry(signal.SIGALRM, COMPILING)  # still compiling: look again later
+    assert armed == [RETRY_S] * 2
+    with pytest.raises(raised):
+        handler.retry(signal.SIGALRM, _frame("driver.py"))
+    assert handler.pending == []
+
+
 def test_a_signal_while_numba_compiles_is_acted_on_once_it_is_done(monkeypatch):
     """SIGTERM during the first run's compile was raised inside llvmlite's ctypes callback: printed as
     'Exception ignored', lost (the run went on), or exit -11. The handler now waits until the compiler's
     frames are gone (SIGALRM every 50 ms), then raises."""
-    import types
-
     from anglesmooth.cli import errors as cli_errors
 
-    def frame(filename, back=None):
-        return types.SimpleNamespace(f_code=types.SimpleNamespace(co_filename=filename), f_back=back)
-
-    compiling = frame(f"{os.sep}site-packages{os.sep}llvmlite{os.sep}binding{os.sep}executionengine.py",
-                      frame(f"{os.sep}site-packages{os.sep}numba{os.sep}core{os.sep}compiler.py", frame("driver.py")))
-    armed = []
-    monkeypatch.setattr(cli_errors.signal, "setitimer", lambda which, seconds: armed.append(seconds))
-    monkeypatch.setattr(cli_errors.signal, "signal", lambda sig, handler: None)
-    monkeypatch.setattr(cli_errors, "_PENDING", [])
-    cli_errors.on_signal(signal.SIGTERM, compiling)  # deferred: no exception inside the compiler
-    assert cli_errors._PENDING == [signal.SIGTERM] and armed == [cli_errors._RETRY_S]
-    cli_errors._retry(signal.SIGALRM, compiling)  # still compiling: look again later
-    assert armed == [cli_errors._RETRY_S] * 2
-    with pytest.raises(cli_errors.Terminated):
-        cli_errors._retry(signal.SIGALRM, frame("driver.py"))
+    _deferring(monkeypatch, cli_errors.on_signal, cli_errors.Terminated)
     with pytest.raises(KeyboardInterrupt):
-        cli_errors.on_signal(signal.SIGINT, frame("driver.py"))
+        cli_errors.on_signal(signal.SIGINT, _frame("driver.py"))
+    with pytest.raises(cli_errors.Terminated):
+        cli_errors.on_signal(signal.SIGTERM, _frame("driver.py"))
+
+
+def test_a_pool_worker_defers_sigterm_while_numba_compiles(monkeypatch):
+    """A batch pool worker's SIGTERM handler raised at once, inside numba's compiler too (lost there: the
+    worker smoothed on, and the parent waited 30 s per worker before SIGKILL); it now defers like the CLI's,
+    then unwinds the task (the atomic write removes its temporary file) and exits 143."""
+    from anglesmooth import batch
+
+    monkeypatch.setitem(batch._WORKER, "busy", True)
+    monkeypatch.setitem(batch._WORKER, "stop", False)
+    _deferring(monkeypatch, batch._on_stop, batch._Stop)
+    assert batch._WORKER["stop"]

@@ -21,8 +21,10 @@ in input order, and ``on_result(index, result)`` is called in input order too
 
 Interruption: a ``KeyboardInterrupt`` (or the CLI's SIGTERM exception) while a
 pool runs cancels the files not started and sends SIGTERM to the workers; a
-worker in the middle of a write removes its temporary file and exits, so no
-partial output is left (every output is written atomically).  Files finished
+worker in the middle of a write removes its temporary file and exits 143, so no
+partial output is left (every output is written atomically); a worker that gets
+SIGTERM while numba compiles acts on it once the compiler is done, as the CLI
+does (:mod:`anglesmooth._signals`).  Files finished
 before the interruption keep their complete outputs.
 
 >>> import os, tempfile
@@ -55,6 +57,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from ._signals import Deferred
 from .errors import AngleSmoothError
 from .fixing import fixed_mask
 from .filesets import MESH_SUFFIXES, BatchError, find_mesh_files, make_dirs, output_name, plan_outputs
@@ -265,11 +268,16 @@ class _Stop(BaseException):
     """Raised in a pool worker by SIGTERM: unwinds the task (removing temporary files) and ends the worker."""
 
 
-def _on_stop(signum, frame):  # pragma: no cover - runs in worker processes
+def _stop(signum: int) -> None:  # pragma: no cover - runs in worker processes
     _WORKER["stop"] = True
     if _WORKER["busy"]:
         raise _Stop()
     os._exit(128 + signum)
+
+
+#: The workers' SIGTERM handler: as the CLI's, it never raises inside numba's compiler (the exception was lost
+#: there, and the worker smoothed on), but once the compiler is done (see :mod:`anglesmooth._signals`).
+_on_stop = Deferred(_stop)
 
 
 def _init_worker(threads: int) -> None:  # pragma: no cover - runs in worker processes

@@ -111,8 +111,18 @@ def output_name(path: str, *, output_dir: str | None = None, suffix: str = "", e
     return str(PurePath(output_dir) / rel.with_name(name))
 
 
+def hdf5_sibling(path: str) -> str | None:
+    """``NAME.h5`` for ``NAME.xdmf`` / ``NAME.xmf``: where an XDMF output's HDF5 data goes (beside it)."""
+    pure = PurePath(path)
+    return str(pure.with_suffix(".h5")) if pure.suffix.lower() in (".xdmf", ".xmf") else None
+
+
 def plan_outputs(inputs: Sequence[str], outputs: Sequence[str], in_place: bool) -> None:
-    """Refuse two inputs with one output, and an output that is another file's input (unless in place)."""
+    """Refuse two inputs with one output, and an output that is another file's input (unless in place).
+
+    The ``.h5`` an XDMF output writes beside itself counts as an output too: two outputs sharing one
+    (``a.xdmf`` and ``a.xmf``), or one that is an input or another output, are refused.
+    """
     seen: dict[str, str] = {}
     resolved_inputs = {os.path.realpath(p): p for p in inputs}
     for src, dst in zip(inputs, outputs):
@@ -123,6 +133,16 @@ def plan_outputs(inputs: Sequence[str], outputs: Sequence[str], in_place: bool) 
         if not in_place and key in resolved_inputs:
             raise BatchError(f"the output of '{src}' would overwrite the input '{resolved_inputs[key]}' "
                              "(use --in-place to rewrite the inputs, or another --output-dir / --suffix)")
+    for src, dst in zip(inputs, outputs):
+        h5 = hdf5_sibling(dst)
+        if h5 is None:
+            continue
+        key = os.path.realpath(h5)
+        if key in seen or key in resolved_inputs:
+            other = f"the output of '{seen[key]}'" if key in seen else f"the input '{resolved_inputs[key]}'"
+            raise BatchError(f"the HDF5 data of '{dst}' (the output of '{src}') would be written to '{h5}', "
+                             f"over {other}")
+        seen[key] = src
 
 
 def make_dirs(directories: Iterable[str]) -> None:

@@ -21,7 +21,7 @@ import numpy as np
 from .errors import InvalidMeshError, UnsupportedMeshError
 from .gmshfile import first_of_duplicates
 from .gmshfile import int_tags as _int_tags
-from .mesh import Mesh2D
+from .mesh import MAX_COORD, Mesh2D
 from .plane import PlaneFrame, fit_plane
 
 __all__ = ["Source", "as_mesh2d", "copy_with_points", "node_tags", "out_mesh", "sample", "to_mesh2d", "to_meshio"]
@@ -31,7 +31,7 @@ _QUAD = ("quad", "quad8", "quad9")
 _REGION_KEYS = ("gmsh:physical", "gmsh:geometrical", "medit:ref", "CellEntityIds")
 _NO_REGION = -(2**62)  # region of 2D blocks without a tag (same sentinel as topology)
 _SET = "set:"
-_MAX_COORD = 1e150
+
 
 @dataclass(frozen=True)
 class Source:
@@ -57,9 +57,9 @@ def _points(m) -> tuple[np.ndarray, PlaneFrame | None]:
     if not np.isfinite(pts).all():  # the per-node masks only to name the first bad node
         i = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
         raise InvalidMeshError(f"node {i} has a non-finite coordinate {pts[i].tolist()}")
-    if pts.max() > _MAX_COORD or pts.min() < -_MAX_COORD:
-        i = int(np.flatnonzero((np.abs(pts) > _MAX_COORD).any(axis=1))[0])
-        raise InvalidMeshError(f"node {i} has an absurd coordinate {pts[i].tolist()} (limit {_MAX_COORD:g})")
+    if pts.max() > MAX_COORD or pts.min() < -MAX_COORD:
+        i = int(np.flatnonzero((np.abs(pts) > MAX_COORD).any(axis=1))[0])
+        raise InvalidMeshError(f"node {i} has an absurd coordinate {pts[i].tolist()} (limit {MAX_COORD:g})")
     had_z = pts.shape[1] == 3
     if not had_z:
         return pts, None

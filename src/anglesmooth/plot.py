@@ -56,7 +56,7 @@ from .meshplot import (
     worst_cells,
     zoom_window,
 )
-from .quality import cell_areas
+from .quality import cell_areas, degenerate_cells, inverted_cells
 from .topology import CellTopology
 
 __all__ = [
@@ -80,6 +80,8 @@ DPI = 110
 MAX_INVERTED_MARKS = 500
 MIN_COLOUR = "#1030ff"  # circles: smallest minimum angles
 MAX_COLOUR = "#c000c0"  # diamonds: largest maximum angles
+#: Fill and marker of degenerate (zero or nearly zero area, not inverted) cells; inverted cells are black.
+DEGENERATE_COLOUR = "#00c8ff"
 
 
 def require_matplotlib() -> None:
@@ -138,9 +140,11 @@ def _halo():
     return [patheffects.withStroke(linewidth=3.2, foreground="white")]
 
 
-def _mark(ax, cent: np.ndarray, lo: np.ndarray, hi: np.ndarray, inverted: np.ndarray) -> None:
+def _mark(ax, cent: np.ndarray, lo: np.ndarray, hi: np.ndarray, inverted: np.ndarray,
+          degenerate: np.ndarray) -> None:
     """Fixed-size markers on the worst cells: diamonds under circles (the minimum angle matters most),
-    and a black cross on each inverted cell (the first :data:`MAX_INVERTED_MARKS`)."""
+    a black cross on each inverted cell and a :data:`DEGENERATE_COLOUR` plus on each degenerate one (the
+    first :data:`MAX_INVERTED_MARKS` of each)."""
     for idx, marker, size, colour, gid in ((hi, "D", 8, MAX_COLOUR, "worst-max"), (lo, "o", 11, MIN_COLOUR, "worst-min")):
         if idx.size:
             (line,) = ax.plot(cent[idx, 0], cent[idx, 1], linestyle="none", marker=marker, markersize=size,
@@ -151,6 +155,11 @@ def _mark(ax, cent: np.ndarray, lo: np.ndarray, hi: np.ndarray, inverted: np.nda
         idx = inverted[:MAX_INVERTED_MARKS]
         ax.plot(cent[idx, 0], cent[idx, 1], linestyle="none", marker="X", markersize=9, markerfacecolor="k",
                 markeredgecolor="white", markeredgewidth=0.8, zorder=6, gid="inverted")
+    if degenerate.size:
+        idx = degenerate[:MAX_INVERTED_MARKS]
+        ax.plot(cent[idx, 0], cent[idx, 1], linestyle="none", marker="P", markersize=9,
+                markerfacecolor=DEGENERATE_COLOUR, markeredgecolor="k", markeredgewidth=0.8, zorder=6,
+                gid="degenerate")
 
 
 def _outline(ax, points, topo, idx: np.ndarray, colour: str, gid: str) -> None:
@@ -202,11 +211,14 @@ def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, 
 
     Axes carry labels for inspection: ``"mesh before"``, ``"mesh after"``,
     ``"zoom before"``, ``"zoom after"``, ``"hist min"``, ``"hist max"``; artists carry
-    gids ``"cells"``, ``"edges"``, ``"worst-min"``, ``"worst-max"``, ``"inverted"``, ``"zoom-window"``.
-    Inverted cells are filled black, crossed, counted in the titles and left out of the
-    minimum-angle histogram (their angles are > 180°, in the maximum-angle one's last bin);
-    the zoom is on the most folded inverted cell after, if any, else on the cell with the
-    smallest minimum angle after.
+    gids ``"cells"``, ``"edges"``, ``"worst-min"``, ``"worst-max"``, ``"inverted"``, ``"degenerate"``,
+    ``"zoom-window"``.  Inverted cells (signed area < 0, :func:`~anglesmooth.quality.inverted_cells`)
+    are filled black and crossed; degenerate cells (zero or nearly zero area, not inverted,
+    :func:`~anglesmooth.quality.degenerate_cells`) are filled :data:`DEGENERATE_COLOUR` and marked
+    with a plus (their fill is a sliver or nothing).  Both are counted in the titles, have a legend
+    entry and are left out of the minimum-angle histogram (an inverted cell's angles are > 180°, in
+    the maximum-angle one's last bin); the zoom is on the most folded inverted cell after, if any,
+    else on a degenerate cell after, else on the cell with the smallest minimum angle after.
     """
     import matplotlib
     from matplotlib.cm import ScalarMappable
@@ -219,25 +231,33 @@ def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, 
     if n_cells == 0:
         raise AngleSmoothError("nothing to plot: the mesh has no cells")
     stages = {"before": before, "after": after}
-    mins, maxs, cent, areas, inverted, colour = {}, {}, {}, {}, {}, {}
+    mins, maxs, cent, areas, inverted, degenerate, colour = {}, {}, {}, {}, {}, {}, {}
+    ideal = 90.0 if topo.n_quad else 60.0
     for s, p in stages.items():
         mins[s], maxs[s] = _extremes(p, topo)
         cent[s] = _centroids(p, topo)
         areas[s] = cell_areas(p, topo)
-        inverted[s] = np.flatnonzero(areas[s] <= 0)
+        inverted[s] = inverted_cells(p, topo)  # as the report counts them: disjoint categories
+        degenerate[s] = degenerate_cells(p, topo)
         colour[s] = mins[s].copy()
         colour[s][inverted[s]] = -1.0  # below the colour scale: drawn black (an inverted cell's angles are > 180)
+        colour[s][degenerate[s]] = ideal + 1.0  # above it (no cell's minimum angle is): DEGENERATE_COLOUR
     bad = {s: int(inverted[s].size) for s in stages}
+    flat = {s: int(degenerate[s].size) for s in stages}
     worst = {s: (_smallest(mins[s], k), _smallest(-maxs[s], k)) for s in stages}
-    # zoom on the worst cell after: the most folded inverted cell if any, else the smallest minimum angle
-    focus = int(inverted["after"][np.argmax(maxs["after"][inverted["after"]])]) if bad["after"] \
-        else int(worst["after"][0][0])
+    # zoom on the worst cell after: the most folded inverted cell if any, else a degenerate cell, else the
+    # smallest minimum angle
+    if bad["after"]:
+        focus = int(inverted["after"][np.argmax(maxs["after"][inverted["after"]])])
+    elif flat["after"]:
+        focus = int(degenerate["after"][0])
+    else:
+        focus = int(worst["after"][0][0])
     window = zoom_window(after, topo, focus, centroids=cent["after"], areas=areas["after"])
     extent = _span(before, after)
 
-    ideal = 90.0 if topo.n_quad else 60.0
     norm = Normalize(vmin=0.0, vmax=ideal)
-    cmap = matplotlib.colormaps[CMAP].with_extremes(under="black")
+    cmap = matplotlib.colormaps[CMAP].with_extremes(under="black", over=DEGENERATE_COLOUR)
     aspect = (extent[3] - extent[2]) / (extent[1] - extent[0]) if extent[1] > extent[0] else 1.0
     mesh_h = float(np.clip(6.3 * aspect, 2.5, 7.5))
     fig = _figure(14.5, mesh_h + 4.9)
@@ -252,14 +272,16 @@ def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, 
     for s in stages:
         ax = axes[f"mesh {s}"]
         _mesh_axes(ax, extent)
-        inv = f", {bad[s]} inverted" if bad[s] else ""
+        inv = (f", {bad[s]} inverted" if bad[s] else "") + (f", {flat[s]} degenerate" if flat[s] else "")
         ax.set_title(f"{s}: min angle {mins[s].min():.2f}°, max angle {maxs[s].max():.2f}°{inv}")
         _mesh_axes(axes[f"zoom {s}"], window)
         axes[f"zoom {s}"].set_title(f"{s}: zoom on the worst cell after", fontsize="medium")
-    any_bad = bad["before"] or bad["after"]
+    any_bad = bool(bad["before"] or bad["after"])
+    any_flat = bool(flat["before"] or flat["after"])
+    extend = {(False, False): "neither", (True, False): "min", (False, True): "max", (True, True): "both"}
     fig.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=[axes["mesh before"], axes["mesh after"]],
-                 label="cell minimum angle (°)" + ("; black: inverted" if any_bad else ""), shrink=0.85,
-                 extend="min" if any_bad else "neither")
+                 label="cell minimum angle (°)" + ("; black: inverted" if any_bad else "")
+                 + ("; cyan: degenerate" if any_flat else ""), shrink=0.85, extend=extend[any_bad, any_flat])
     kk = min(k, n_cells)
     handles = [Line2D([], [], linestyle="none", marker="o", markersize=9, markerfacecolor="none",
                       markeredgecolor=MIN_COLOUR, markeredgewidth=1.6, label=f"smallest minimum angles ({kk} cell{'s' * (kk > 1)})"),
@@ -269,12 +291,17 @@ def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, 
                       markeredgecolor="k", label="zoom window")]
     if any_bad:
         handles.append(Line2D([], [], linestyle="none", marker="X", markersize=9, markerfacecolor="k",
-                              markeredgecolor="white", label="inverted cells"))
+                              markeredgecolor="white", label="inverted cells (area < 0)"))
+    if any_flat:
+        handles.append(Line2D([], [], linestyle="none", marker="P", markersize=9, markerfacecolor=DEGENERATE_COLOUR,
+                              markeredgecolor="k", label="degenerate cells (zero area)"))
     fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), frameon=False)
 
     mbins = np.arange(0.0, ideal + 1.0, 1.0)
-    labels = [f"{s}" + (f" ({bad[s]} inverted not shown)" if bad[s] else "") for s in stages]
-    valid = {s: np.delete(mins[s], inverted[s]) for s in stages}
+    hidden = {s: ", ".join([f"{bad[s]} inverted"] * bool(bad[s]) + [f"{flat[s]} degenerate"] * bool(flat[s]))
+              for s in stages}
+    labels = [f"{s}" + (f" ({hidden[s]} not shown)" if hidden[s] else "") for s in stages]
+    valid = {s: np.delete(mins[s], np.concatenate([inverted[s], degenerate[s]])) for s in stages}
     _hist(axes["hist min"], valid["before"], valid["after"], mbins, labels, "cell minimum angle (°)", [20])
     axes["hist min"].set_title("cell minimum angles")
     xbins = np.concatenate([np.arange(60.0 if topo.n_tri else 90.0, 181.0, 1.0), [185.0]])
@@ -292,7 +319,7 @@ def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, 
         ax = axes[f"mesh {s}"]
         ppu = _px_per_unit(ax)
         draw_mesh(ax, pts, topo, colour[s], norm=norm, cmap=cmap, px_per_unit=ppu)
-        _mark(ax, cent[s], lo, hi, inverted[s])
+        _mark(ax, cent[s], lo, hi, inverted[s], degenerate[s])
         _window_marker(ax, window, ppu)
         zax = axes[f"zoom {s}"]
         inside = _cells_in(pts, topo, window)
@@ -302,7 +329,8 @@ def smooth_figure(topo: CellTopology, before: np.ndarray, after: np.ndarray, *, 
         _outline(zax, pts, topo, np.array([c for c in lo if c in shown], dtype=np.int64), MIN_COLOUR, "worst-min")
         c = cent[s][focus]
         towards = np.sign([(window[0] + window[1]) / 2 - c[0], (window[2] + window[3]) / 2 - c[1]]) + (0.5, 0.5)
-        label = "inverted" if areas[s][focus] <= 0 else f"{mins[s][focus]:.1f}°"
+        label = "inverted" if focus in inverted[s] else "degenerate" if focus in degenerate[s] \
+            else f"{mins[s][focus]:.1f}°"
         zax.annotate(label, c, xytext=tuple(9 * np.sign(towards)), textcoords="offset points",
                      ha="left" if towards[0] > 0 else "right", va="bottom" if towards[1] > 0 else "top",
                      fontsize="small", fontweight="bold", color="k", path_effects=_halo(), zorder=7,

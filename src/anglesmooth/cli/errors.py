@@ -18,6 +18,7 @@ from collections.abc import Callable
 
 import click
 
+from .._signals import Deferred
 from ..errors import AngleSmoothError
 
 EXIT_OK, EXIT_GATE, EXIT_USAGE, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3, 4
@@ -33,46 +34,15 @@ class Terminated(KeyboardInterrupt):
     """Raised by the SIGTERM handler so that cleanup (atomic writes) runs as for Ctrl-C."""
 
 
-#: Code that a signal's exception must not interrupt: numba compiling (an exception raised in llvmlite's ctypes
-#: callbacks is printed as "Exception ignored" and lost, so the run went on; or it crashed LLVM, exit -11).
-_COMPILER_DIRS = tuple(f"{os.sep}{name}{os.sep}" for name in ("numba", "llvmlite"))
-_PENDING: list[int] = []
-_RETRY_S = 0.05
-
-
-def _in_compiler(frame) -> bool:
-    while frame is not None:
-        if any(part in frame.f_code.co_filename for part in _COMPILER_DIRS):
-            return True
-        frame = frame.f_back
-    return False
-
-
 def _raise_for(signum: int) -> None:
     if signum == signal.SIGTERM:
         raise Terminated()
     raise KeyboardInterrupt()
 
 
-def on_signal(signum, frame):  # pragma: no cover - exercised in a subprocess
-    """SIGTERM / SIGINT: raise :class:`Terminated` / KeyboardInterrupt, at once, or when numba has finished
-    compiling (checked every 50 ms with SIGALRM), so that the run stops and cleans up either way."""
-    if _in_compiler(frame):
-        if not _PENDING:
-            _PENDING.append(signum)
-            signal.signal(signal.SIGALRM, _retry)
-            signal.setitimer(signal.ITIMER_REAL, _RETRY_S)
-        return
-    _raise_for(signum)
-
-
-def _retry(signum, frame):  # pragma: no cover - exercised in a subprocess
-    if _in_compiler(frame):
-        signal.setitimer(signal.ITIMER_REAL, _RETRY_S)
-        return
-    _raise_for(_PENDING.pop())
-
-
+#: SIGTERM / SIGINT: raise :class:`Terminated` / KeyboardInterrupt, at once, or when numba has finished compiling
+#: (checked every 50 ms with SIGALRM; see :mod:`anglesmooth._signals`), so that the run stops and cleans up.
+on_signal = Deferred(_raise_for)
 on_sigterm = on_signal  # the name main installs
 
 

@@ -197,7 +197,8 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
     except filesets.BatchError as exc:
         raise Usage(str(exc)) from None
     if json_path not in (None, STDIO):
-        if os.path.realpath(json_path) in {os.path.realpath(o) for o in outputs + paths}:
+        h5 = [h for h in map(filesets.hdf5_sibling, outputs) if h is not None]  # an XDMF output's data
+        if os.path.realpath(json_path) in {os.path.realpath(o) for o in outputs + paths + h5}:
             raise Usage(f"--json '{json_path}' is one of the mesh files")
     reports = plan_outputs({"--json": json_path, "--junit-xml": junit_path}, [("INPUT", p) for p in paths])
     n = len(paths)

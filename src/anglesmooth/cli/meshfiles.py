@@ -157,10 +157,34 @@ def check_paths(input, output, *, force, in_place, input_format, output_format, 
     format_name(output_format, "--output-format")
     # an existing OUTPUT is replaced (atomically, see _paths), as gmsh -o, meshio convert, cp and sort -o do;
     # only the input itself (the same file by path, symlink or hard link) needs --force or --in-place
-    outs = plan_outputs({"OUTPUT": output, "--json": json_path, "--plot": plot, "--junit-xml": junit_path},
+    outs = plan_outputs({"OUTPUT": output, "--json": json_path, "--plot": plot, "--junit-xml": junit_path,
+                         H5_LABEL: hdf5_beside(output, output_format)},
                         [("INPUT", input), ("--fix-nodes", fix_nodes), ("--gate-file", gate_file)],
-                        may_replace_input=("OUTPUT",) if force or in_place else ())
+                        may_replace_input=("OUTPUT", H5_LABEL) if force or in_place else ())
     return output, outs
+
+
+#: The label of an XDMF OUTPUT's HDF5 data file among the outputs (see :func:`hdf5_beside`).
+H5_LABEL = "the .h5 beside OUTPUT"
+
+
+def hdf5_beside(output: str | None, output_format: str | None) -> str | None:
+    """``NAME.h5`` for an XDMF OUTPUT ``NAME.xdmf``: its heavy data, written beside it (see ``anglesmooth.io``).
+
+    It is an output like the others: it must not be an input (``--gate-file out.h5``) or another output
+    (``--json out.h5``), which it would replace.  Checked whether or not HDF5 is chosen in the end.
+    """
+    if output is None or output == STDIO:
+        return None
+    fmt = format_name(output_format, "--output-format") if output_format else None
+    if fmt is None:
+        from ..formats import resolve as _resolve
+
+        try:
+            fmt = _resolve(Path(output).suffix.lstrip(".").lower() or None)
+        except UnknownFormatError:
+            return None
+    return str(Path(output).with_suffix(".h5")) if fmt == "xdmf" else None
 
 
 def plan_outputs(outputs: dict, inputs: list, may_replace_input=()) -> _paths.Outputs:

@@ -20,6 +20,10 @@ class FiniteFloat(click.FloatRange):
             self.fail(f"{value!r} is not a finite number.", param, ctx)
         return number
 
+    def _describe_range(self) -> str:
+        # click describes an unbounded range as "x<=None" in --help
+        return "" if self.min is None and self.max is None else super()._describe_range()
+
 
 def gate_options(f: Callable) -> Callable:
     options = [

@@ -66,7 +66,8 @@ COMMANDS = ("check", "compare", "schema", "smooth")
 @formats.format_option
 @formats.junit_option
 @click.option("--plot", type=click.Path(dir_okay=False), metavar="PNG",
-              help="Write a PNG: mesh before/after coloured by minimum angle, angle histograms.")
+              help="Write a PNG: mesh before/after coloured by minimum angle (inverted cells black, "
+                   "degenerate cyan), angle histograms.")
 @click.option("--progress/--no-progress", default=None,
               help=f"Progress bar over passes [default: on a terminal with > {PROGRESS_MIN_CELLS} cells].")
 @click.option("--threads", type=click.IntRange(min=1), metavar="N",
