@@ -145,6 +145,16 @@ def test_tol_stops_early(meshes, tmp_path):
     assert doc["passes"] == 1 and doc["passes_requested"] == 10
 
 
+def test_no_free_node_reports_no_pass(tmp_path):
+    src = tmp_path / "square.vtu"
+    write(anglesmooth.Mesh2D.from_arrays([[0, 0], [1, 0], [1, 1], [0, 1]], triangles=[[0, 1, 2], [0, 2, 3]]), src)
+    result = run(src, tmp_path / "o.vtu", "--json", "-")
+    doc = json.loads(result.stdout)
+    assert result.exit_code == 0, result.stderr
+    assert doc["passes"] == 0 and doc["passes_requested"] == 10 and doc["displacements"] == []
+    assert "nothing to smooth" in result.stderr
+
+
 def test_forced_progress_bar(meshes, tmp_path):
     result = run(meshes["msh"], tmp_path / "o.vtu", "--progress", "--passes", "2")
     assert result.exit_code == 0 and result.stdout == ""

@@ -63,6 +63,16 @@ def test_zero_passes_returns_input_and_runs_are_deterministic(method):
 
 
 @pytest.mark.parametrize("method", METHODS)
+def test_no_free_node_does_no_pass(method):
+    """Every node on the boundary: nothing can move, so no pass is run (nor reported)."""
+    mesh = Mesh2D.from_arrays([[0, 0], [1, 0], [1, 1], [0, 1]], triangles=[[0, 1, 2], [0, 2, 3]])
+    calls = []
+    r = smooth(mesh, method, passes=10, callback=lambda *a: calls.append(a))
+    assert r.passes == 0 and r.displacements == [] and calls == [] and r.rejected == 0
+    assert np.array_equal(r.points, mesh.points)
+
+
+@pytest.mark.parametrize("method", METHODS)
 def test_step_is_pure(method):
     mesh = generate.paper_quad_mesh(seed=0)
     topo = build_topology(mesh)

@@ -37,7 +37,8 @@ class SmoothResult:
         The topology used (fixed mask included), reusable for quality reports.
     method : str
     passes : int
-        Passes performed (fewer than asked when ``tol`` stopped early).
+        Passes performed (fewer than asked when ``tol`` stopped early; 0 when no node is free, as then
+        no pass could move anything).
     displacements : list[float]
         Per pass, the largest node displacement relative to the mean edge length.
     rejected : int
@@ -101,7 +102,7 @@ def smooth(
     method : str
         A name in :data:`anglesmooth.SMOOTHERS`.
     passes : int
-        Maximum number of passes (0 returns the input coordinates).
+        Maximum number of passes (0 returns the input coordinates, as does a mesh without a free node).
     tol : float, optional
         Stop once a pass moves no node by more than ``tol`` times the mean edge length.
     guard : bool
@@ -143,7 +144,9 @@ def smooth(
     rejected = reverted = 0
     done = 0
     # the guard keeps the anisotropic (boundary-layer) cells of the input from collapsing
-    if guard and "floors" not in options:
+    if not topo.free_nodes.shape[0]:
+        passes = 0  # every node is fixed: a pass could move nothing (and displacements stay empty)
+    if guard and passes and "floors" not in options:
         options["floors"] = input_floors(pts, topo)
     for k in range(passes):
         new, rej = smoother.step(pts, topo, guard=guard, order=order, **options)
