@@ -494,3 +494,19 @@ def test_an_output_format_that_cannot_hold_the_mesh_fails_before_smoothing(tmp_p
     (r,) = smooth_files([str(tmp_path / "a.vtu")], output_dir=str(tmp_path / "out"), extension=".obj")
     assert r.exit_code == 3 and "the obj format cannot hold this mesh" in r.error, r.error
     assert calls == [] and os.listdir(tmp_path / "out") == []
+
+
+def test_json_report_inside_the_output_dir_it_creates(tmp_path, monkeypatch):
+    """--json out/r.json with --output-dir out (not there yet) was refused: "directory 'out' does not exist"."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "in").mkdir()
+    for name in ("a", "b"):
+        write(paper_triangle_mesh(seed=1), tmp_path / "in" / f"{name}.vtu")
+    r = run("in", "--output-dir", "out", "--json", "elsewhere/r.json")
+    assert r.exit_code == 3 and "directory 'elsewhere' does not exist" in r.stderr  # only the dirs it makes
+    assert not (tmp_path / "out").exists()
+    r = run("in", "--output-dir", "out/x", "--json", "out/r.json", "--junit-xml", "out/x/j.xml")
+    assert r.exit_code == 0, r.stderr
+    assert sorted(os.listdir(tmp_path / "out")) == ["r.json", "x"]
+    assert sorted(os.listdir(tmp_path / "out" / "x")) == ["a.vtu", "b.vtu", "j.xml"]
+    assert len(json.loads((tmp_path / "out" / "r.json").read_text())["files"]) == 2
