@@ -18,6 +18,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from cli_runner import cli_runner, digest
 
@@ -476,3 +477,36 @@ def test_the_h5_of_an_xdmf_output_is_an_output(tmp_path, monkeypatch):
     r = run("in/a.vtu", "in/b.vtu", "--output-dir", "out", "--output-format", "xdmf", "--json", "out/a.h5")
     assert r.exit_code == 2 and "is one of the mesh files" in r.stderr
     assert sorted(os.listdir(tmp_path)) == before  # no out/ either
+
+
+def test_an_output_format_that_cannot_hold_the_mesh_fails_before_smoothing(tmp_path, monkeypatch):
+    """As for one file: OBJ holds no line cells, so a gmsh mesh with boundary lines fails with the reason in
+    words before it is smoothed (the error came from meshio's writer after the smoothing, in other words)."""
+    import meshio
+
+    from anglesmooth import driver
+
+    m = paper_triangle_mesh(seed=1)
+    edges = np.array([[0, 1]])
+    meshio.write(tmp_path / "a.vtu", meshio.Mesh(m.points, [("triangle", m.triangles), ("line", edges)]))
+    calls = []
+    monkeypatch.setattr(driver, "smooth", lambda *a, **k: calls.append(1))
+    (r,) = smooth_files([str(tmp_path / "a.vtu")], output_dir=str(tmp_path / "out"), extension=".obj")
+    assert r.exit_code == 3 and "the obj format cannot hold this mesh" in r.error, r.error
+    assert calls == [] and os.listdir(tmp_path / "out") == []
+
+
+def test_json_report_inside_the_output_dir_it_creates(tmp_path, monkeypatch):
+    """--json out/r.json with --output-dir out (not there yet) was refused: "directory 'out' does not exist"."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "in").mkdir()
+    for name in ("a", "b"):
+        write(paper_triangle_mesh(seed=1), tmp_path / "in" / f"{name}.vtu")
+    r = run("in", "--output-dir", "out", "--json", "elsewhere/r.json")
+    assert r.exit_code == 3 and "directory 'elsewhere' does not exist" in r.stderr  # only the dirs it makes
+    assert not (tmp_path / "out").exists()
+    r = run("in", "--output-dir", "out/x", "--json", "out/r.json", "--junit-xml", "out/x/j.xml")
+    assert r.exit_code == 0, r.stderr
+    assert sorted(os.listdir(tmp_path / "out")) == ["r.json", "x"]
+    assert sorted(os.listdir(tmp_path / "out" / "x")) == ["a.vtu", "b.vtu", "j.xml"]
+    assert len(json.loads((tmp_path / "out" / "r.json").read_text())["files"]) == 2

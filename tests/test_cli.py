@@ -13,6 +13,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import meshio
 import numpy as np
@@ -544,6 +545,30 @@ def test_python_dash_m_subprocess(meshes, tmp_path):
                           capture_output=True, timeout=120)
     assert proc.returncode == 3 and proc.stdout == b""
     assert proc.stderr.decode().count("\n") == 1 and b"Traceback" not in proc.stderr
+
+
+def test_click_usage_errors_are_one_line(tmp_path):
+    """A bad option value, an unknown option or a missing argument: exit 2 and one 'anglesmooth: error:' line
+    naming the command's --help (click printed three lines: usage, 'Try ...', 'Error: ...')."""
+    cases = [(["in.msh", "o.vtu", "--passes", "-1"], "'--passes' / '-n': -1 is not in the range", "smooth"),
+             (["in.msh", "o.vtu", "--frobnicate"], "No such option '--frobnicate'", "smooth"),
+             (["check"], "Missing argument 'INPUT...'", "check"),
+             (["check", "in.msh", "--max-inverted", "x"], "'--max-inverted': 'x' is not a valid integer", "check"),
+             (["schema", "nope"], "'nope' is not one of", "schema")]
+    code = ("import sys\nfrom anglesmooth.cli import main\n"
+            "try:\n    main(sys.argv[1:])\nexcept SystemExit as e:\n    sys.exit(e.code)\n")
+    src = str(Path(__file__).resolve().parents[1] / "src")  # this worktree's code, whatever the cwd
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([src, os.environ.get("PYTHONPATH", "")]))
+    for argv, words, command in cases:
+        proc = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, cwd=tmp_path,
+                              env=env, timeout=300)
+        assert proc.returncode == 2 and proc.stdout == "", (argv, proc.stderr)
+        lines = proc.stderr.splitlines()
+        assert len(lines) == 1 and lines[0].startswith("anglesmooth: error: "), (argv, proc.stderr)
+        assert words in lines[0] and lines[0].endswith(f"(see 'anglesmooth {command} --help')"), lines[0]
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, env=env,
+                          timeout=300)
+    assert proc.returncode == 2 and proc.stderr.startswith("Usage: anglesmooth")  # no arguments: the help
 
 
 @pytest.mark.skipif(shutil.which("anglesmooth") is None, reason="console script not installed")

@@ -234,11 +234,13 @@ class _SmoothTask(_Task):
         from . import report
         from .driver import smooth
         from .gates import evaluate
-        from .io import write
+        from .io import check_output, write
         from .quality import summarize
         from .topology import build_topology
 
         mesh = _read(self.path, self.input_format)
+        with contextlib.redirect_stdout(_stdio.StringIO()):  # before smoothing, as one file: can OUTPUT hold it?
+            check_output(mesh, self.output, file_format=self.output_format)
         topo = build_topology(mesh, fixed_mask(mesh, self.fix_groups, self.fix_nodes))
         before = summarize(mesh.points, topo)
         result = smooth(mesh, self.method, self.passes, tol=self.tol, guard=self.guard, order=self.order,

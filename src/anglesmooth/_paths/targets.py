@@ -60,10 +60,13 @@ def _ident(st: os.stat_result) -> tuple[int, int]:
     return (st.st_dev, st.st_ino)
 
 
-def resolve_output(path: str | os.PathLike, what: str = "cannot write", *, stdio: bool = False) -> Target:
+def resolve_output(path: str | os.PathLike, what: str = "cannot write", *, stdio: bool = False,
+                   created: Iterable[str] = ()) -> Target:
     """Resolve an output path and check that it can be written (raises :class:`MeshWriteError`).
 
-    With ``stdio`` (the command line), ``-`` is stdout; otherwise it is a file named ``-``.
+    With ``stdio`` (the command line), ``-`` is stdout; otherwise it is a file named ``-``.  ``created``:
+    directories the command creates (with their parents) before it writes (``--output-dir``); an output in
+    one of them may have a missing directory, checked at its nearest existing ancestor instead.
     """
     given = os.fspath(path)
     if given == STDIO and stdio:
@@ -106,6 +109,10 @@ def resolve_output(path: str | os.PathLike, what: str = "cannot write", *, stdio
     if given.endswith("/"):
         raise target.error("it is a directory")
     parent = real.parent
+    if not parent.exists() and parent in {d for c in created for d in (Path(os.path.realpath(c)),
+                                                                      *Path(os.path.realpath(c)).parents)}:
+        while not parent.exists():  # made before the write: check where it will be made
+            parent = parent.parent
     if not parent.exists():
         shown = parent if os.path.islink(given) else Path(given).parent  # a dangling link: where it points
         raise target.error(f"directory '{shown}' does not exist")
@@ -148,17 +155,20 @@ def _same(t: Target, ident, mode: int, real: str | None) -> bool:
 
 
 def check_outputs(outputs: Mapping[str, str | None], inputs: Iterable[tuple[str, str | None]], *,
-                  may_replace_input: Iterable[str] = (), what: Mapping[str, str] | None = None) -> dict[str, Target]:
+                  may_replace_input: Iterable[str] = (), what: Mapping[str, str] | None = None,
+                  created: Iterable[str] = ()) -> dict[str, Target]:
     """Resolve every output (``label -> path``), check each can be written and that none is an input or another output.
 
     ``inputs`` are ``(label, path)`` pairs (``"-"`` is stdin).  Outputs whose label is in
     ``may_replace_input`` may be an input (``--force`` / ``--in-place``).  Raises
     :class:`MeshWriteError` (exit 3) for an unwritable output and :class:`OutputConflictError`
-    (exit 2) for a collision.
+    (exit 2) for a collision.  ``created``: directories the command makes before writing (see
+    :func:`resolve_output`).
     """
     what = dict(what or {})
     allowed = set(may_replace_input)
-    targets = {label: resolve_output(path, what.get(label, "cannot write"), stdio=True)
+    created = tuple(created)
+    targets = {label: resolve_output(path, what.get(label, "cannot write"), stdio=True, created=created)
                for label, path in outputs.items() if path is not None}
     ins = [(label, path, *_input_ident(path)) for label, path in inputs if path is not None]
     for label, t in targets.items():

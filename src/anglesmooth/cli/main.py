@@ -124,6 +124,10 @@ def configure(ctx: click.Context, name: str, args: list[str]) -> None:
     ctx.meta[CONFIG_PATH] = config.path  # an input: no output may name it
 
 
+#: click >= 8.2 raises this usage error, holding the whole help text, for a group called without arguments.
+_NO_ARGS = getattr(click.exceptions, "NoArgsIsHelpError", ())
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console-script entry point: install the SIGTERM handler, guard closed std streams, run the group.
 
@@ -140,6 +144,13 @@ def main(argv: list[str] | None = None) -> None:
     except (click.exceptions.Abort, KeyboardInterrupt) as exc:
         code, message = classify(exc if isinstance(exc, KeyboardInterrupt) else exc.__context__ or KeyboardInterrupt())
         error(message)
+    except _NO_ARGS as exc:  # no arguments at all: the help text (exit 2)
+        exc.show()
+        code = exc.exit_code
+    except click.exceptions.UsageError as exc:  # one line, as every other error (click prints three)
+        where = exc.ctx.command_path if exc.ctx is not None else "anglesmooth"
+        error(f"{exc.format_message()} (see '{where} --help')")
+        code = exc.exit_code
     except click.exceptions.ClickException as exc:
         exc.show()
         code = exc.exit_code

@@ -200,7 +200,8 @@ def smooth_many(console, inputs, *, output_dir, suffix, output_format, in_place,
         h5 = [h for h in map(filesets.hdf5_sibling, outputs) if h is not None]  # an XDMF output's data
         if os.path.realpath(json_path) in {os.path.realpath(o) for o in outputs + paths + h5}:
             raise Usage(f"--json '{json_path}' is one of the mesh files")
-    reports = plan_outputs({"--json": json_path, "--junit-xml": junit_path}, [("INPUT", p) for p in paths])
+    reports = plan_outputs({"--json": json_path, "--junit-xml": junit_path}, [("INPUT", p) for p in paths],
+                           created=[str(Path(o).parent) for o in outputs])  # --json out/r.json with --output-dir out
     n = len(paths)
 
     def on_result(i: int, r: batch.FileResult) -> None:

@@ -187,13 +187,13 @@ def hdf5_beside(output: str | None, output_format: str | None) -> str | None:
     return str(Path(output).with_suffix(".h5")) if fmt == "xdmf" else None
 
 
-def plan_outputs(outputs: dict, inputs: list, may_replace_input=()) -> _paths.Outputs:
+def plan_outputs(outputs: dict, inputs: list, may_replace_input=(), created=()) -> _paths.Outputs:
     """Every output of a command, resolved and checked against every input and each other (see _paths)."""
     what = {"--json": "cannot write JSON report", "--plot": "cannot write plot", "--junit-xml": "cannot write JUnit XML"}
     ctx = click.get_current_context(silent=True)
     config = ctx.meta.get(CONFIG_PATH) if ctx is not None else None
     inputs = [*inputs, ("the configuration file", str(config) if config is not None else None)]
-    return _paths.Outputs.check(outputs, inputs, may_replace_input=may_replace_input, what=what)
+    return _paths.Outputs.check(outputs, inputs, may_replace_input=may_replace_input, what=what, created=created)
 
 
 _NUMBERING = {"index": "0-based node indices", "gmsh": "gmsh node tags (1-based)"}
