@@ -52,18 +52,31 @@ class Floors(NamedTuple):
         return self.packed.size > 0
 
 
-def _cell_shape(x: np.ndarray, y: np.ndarray, cells: np.ndarray):
+def _gather(z: np.ndarray, cells: np.ndarray):
+    """x and y of every corner of (n, k) ``cells``, as k columns each, from the nodes ``z`` as complex
+    numbers: one gather fetches x and y together (one cache line, not two), and intp indices (numpy's
+    gathers with int32 indices are about twice as slow).  The values are the very coordinates."""
+    c = [np.take(z, col) for col in np.ascontiguousarray(cells.T, dtype=np.intp)]
+    return [v.real for v in c], [v.imag for v in c]
+
+
+def _edge_lengths(px, py):
+    """(edge vectors ex, ey and lengths (k, n)) of the cells whose corners are at (px, py); edge m runs
+    from corner m to m + 1."""
+    k = len(px)
+    ex = [px[(m + 1) % k] - px[m] for m in range(k)]
+    ey = [py[(m + 1) % k] - py[m] for m in range(k)]
+    return ex, ey, np.array([np.sqrt(ex[m] * ex[m] + ey[m] * ey[m]) for m in range(k)])
+
+
+def _cell_shape(z: np.ndarray, cells: np.ndarray):
     """(edge lengths (k, n), well shaped (n,), near-rectangular (n,) or None) of (n, k) ccw cells.
 
     Edge m runs from corner m to m + 1; well shaped: every corner within ``KEEP_QUAD`` of a right
     angle (quads) or at least ``KEEP_TRI`` (triangles); near-rectangular: within ``KEEP_RECT``.
     """
     k = cells.shape[1]
-    px = [np.take(x, cells[:, m]) for m in range(k)]
-    py = [np.take(y, cells[:, m]) for m in range(k)]
-    ex = [px[(m + 1) % k] - px[m] for m in range(k)]
-    ey = [py[(m + 1) % k] - py[m] for m in range(k)]
-    e = np.array([np.sqrt(ex[m] * ex[m] + ey[m] * ey[m]) for m in range(k)])
+    ex, ey, e = _edge_lengths(*_gather(z, cells))
     good = np.ones(cells.shape[0], bool)
     rect = np.ones(cells.shape[0], bool) if k == 4 else None
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -97,7 +110,7 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
     quads beside triangles from 93 to 129 deg).
     """
     n = points.shape[0]
-    x, y = np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
+    z = np.ascontiguousarray(points, dtype=np.float64).view(np.complex128).reshape(n)  # x + iy of every node
     poor = np.zeros(n, bool)  # per point: some cell of it is not well shaped
     keep_q = np.zeros(n, bool)  # per point: a corner of a near-rectangular stretched quad
     an_node = np.zeros(n, bool)  # per point: a corner of an anisotropic cell
@@ -106,7 +119,7 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
         k = all_cells.shape[1]
         for c0 in range(0, all_cells.shape[0], _CHUNK):
             cells = all_cells[c0 : c0 + _CHUNK]
-            e, good, rect = _cell_shape(x, y, cells)
+            e, good, rect = _cell_shape(z, cells)
             emax, emin = np.max(e, axis=0), np.min(e, axis=0)
             an = emax >= aniso * emin
             an_node[cells[an].ravel()] = True
@@ -120,22 +133,26 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
     packed = np.zeros((6, max(nrow)))
     out = [packed[k, : nrow[k // 3]] for k in range(6)]
     for j, verts in enumerate((topo.tri_verts, topo.quad_verts)):
-        k = verts.shape[1]
-        all_rows = np.flatnonzero(an_node[verts[:, 0]])  # rows of a node with an anisotropic cell
-        for r0 in range(0, all_rows.shape[0], _CHUNK):
-            _row_floors(x, y, verts, all_rows[r0 : r0 + _CHUNK], out[3 * j : 3 * j + 3], fraction, aniso)
+        wanted = an_node[verts[:, 0]]  # rows of a node with an anisotropic cell
+        for r0 in range(0, verts.shape[0], _CHUNK):
+            part = wanted[r0 : r0 + _CHUNK]
+            # a chunk of wanted rows only is a slice (no index copies); other rows keep their untouched zeros
+            rows = slice(r0, r0 + part.shape[0]) if part.all() else np.flatnonzero(part) + r0
+            _row_floors(z, verts, rows, out[3 * j : 3 * j + 3], fraction, aniso)
     if not an_node.any():
         packed = np.zeros((0, 0))
     return Floors(*out, packed, keep)
 
 
-def _row_floors(x, y, verts, rows, out, fraction, aniso) -> None:
-    """The floors of incidence rows ``rows`` of ``verts``, written into the three columns ``out``."""
+def _row_floors(z, verts, rows, out, fraction, aniso) -> None:
+    """The floors of incidence rows ``rows`` (indices or a slice) of ``verts``, written into the three
+    columns ``out``."""
     k = verts.shape[1]
-    e, _, _ = _cell_shape(x, y, verts[rows])
+    if not isinstance(rows, slice) and not rows.shape[0]:
+        return
+    px, py = _gather(z, verts[rows])  # once, for the lengths and the area
+    _, _, e = _edge_lengths(px, py)
     an = np.max(e, axis=0) >= aniso * np.min(e, axis=0)
-    px = [np.take(x, verts[rows, m]) for m in range(k)]
-    py = [np.take(y, verts[rows, m]) for m in range(k)]
     if k == 3:
         area2 = (px[1] - px[0]) * (py[2] - py[0]) - (py[1] - py[0]) * (px[2] - px[0])
     else:
