@@ -10,6 +10,19 @@ import numpy as np
 from ..topology import Block, Topology
 
 
+def intp(topo: Topology, name: str) -> np.ndarray:
+    """``topo.<name>`` (an int32 index table) as an ``np.intp`` array, converted once and cached.
+
+    numpy converts non-intp indices on every gather or scatter: ``np.take`` of (n, 2) rows with
+    int32 indices costs about 1.7x the same with intp ones (numpy 2.x).
+    """
+    key = ("intp", name)
+    hit = topo._cache.get(key)
+    if hit is None:
+        hit = topo._cache[key] = np.ascontiguousarray(getattr(topo, name), dtype=np.intp)
+    return hit
+
+
 class StepResult(NamedTuple):
     """What one pass of a smoother returns: new (N, 2) points and the number of refused moves."""
 
@@ -37,7 +50,7 @@ def run_blocks(
     for blk in topo.blocks(order):
         if blk.size == 0:
             continue
-        nodes = topo.free_nodes[blk.nodes]
+        nodes = intp(topo, "free_nodes")[blk.nodes]
         new, rej = update(out, blk, np.take(out, nodes, axis=0))
         x[nodes] = new[:, 0]
         y[nodes] = new[:, 1]

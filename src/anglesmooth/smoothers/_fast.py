@@ -355,7 +355,9 @@ def _call(fn, args):
     _prepare(fn, args)
     names = _params(fn)
     n = args[names.index("nodes")].shape[0] if "nodes" in names and len(names) == len(args) else 0
-    n_threads = threads(n) if n else 1
+    # fewer than 2 * MIN_CHUNK nodes run on one thread whatever the settings (threads() reads the
+    # environment and the affinity mask: some 15 us a call)
+    n_threads = threads(n) if n >= 2 * MIN_CHUNK else 1
     spec = _split_spec(fn, args) if n_threads > 1 else None
     if spec is None:
         return fn(*args)
@@ -470,7 +472,9 @@ def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, ne
     rp, sp, tp, qp = _csr(topo)
     # always fresh writeable copies: a broadcast view is read-only, another compiled signature (a
     # scalar ``good``, as in warm_up, copied, and a per-node one did not: two compiles)
-    good = np.array(np.broadcast_to(np.asarray(good, dtype=np.float64), (blk.size,)))
+    if not (isinstance(good, np.ndarray) and good.dtype == np.float64 and good.shape == (blk.size,)
+            and good.flags.c_contiguous and good.flags.writeable):  # (the cached per-node thresholds are)
+        good = np.array(np.broadcast_to(np.asarray(good, dtype=np.float64), (blk.size,)))
     return _run(
         _k().angle_choose,
         points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,

@@ -31,6 +31,7 @@ import numpy as np
 
 from ..topology import Block, Topology
 from . import _fast
+from ._blocks import intp
 from ._floors import Floors
 from ._rows import _CHUNK, _SMALL, _SMALL_SUBSET, _layout, _rowreduce, _Rows  # noqa: F401  (re-exported)
 
@@ -290,8 +291,8 @@ def laplacian_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarr
     if _fast.active(topo):
         return _fast.laplacian_target(points, topo, blk)
     a = blk.nodes.start
-    rel = topo.ring_loc[blk.ring] - a
-    nb = np.take(points, topo.ring_nbr[blk.ring], axis=0)
+    rel = intp(topo, "ring_loc")[blk.ring] - a
+    nb = np.take(points, intp(topo, "ring_nbr")[blk.ring], axis=0)
     n = blk.size
     out = np.empty((n, 2))
     out[:, 0] = np.bincount(rel, weights=nb[:, 0], minlength=n)
@@ -315,7 +316,7 @@ def angle_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
     a0 = blk.nodes.start
     sl = blk.spokes
     n = blk.size
-    cur = np.take(points, topo.free_nodes[blk.nodes], axis=0)
+    cur = np.take(points, intp(topo, "free_nodes")[blk.nodes], axis=0)
     out = np.empty((n, 2))
     # node-aligned chunks of about _CHUNK spokes: the temporaries stay in cache, and
     # every node's spokes are summed in the same order as by one bincount
@@ -325,7 +326,7 @@ def angle_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
     cuts = np.unique(np.concatenate([[0], cuts[cuts < n], [n]]))
     for n0, n1 in zip(cuts[:-1].tolist(), cuts[1:].tolist()):
         chunk = slice(sl.start + int(offs[n0]), sl.start + int(offs[n1]))
-        out[n0:n1] = _angle_sums(points, topo, chunk, topo.spoke_loc[chunk] - (a0 + n0), cur[n0:n1])
+        out[n0:n1] = _angle_sums(points, topo, chunk, intp(topo, "spoke_loc")[chunk] - (a0 + n0), cur[n0:n1])
     out /= blk.spoke_count[:, None]
     return out
 
@@ -334,10 +335,10 @@ def _angle_sums(points: np.ndarray, topo: Topology, sl: slice, rel: np.ndarray, 
     """Per node (rows of ``cur``), the sum over its spokes ``sl`` of the rotated positions."""
     n = cur.shape[0]
     cx, cy = np.take(cur[:, 0], rel), np.take(cur[:, 1], rel)
-    pj = np.take(points, topo.spoke_ring[sl], axis=0)
+    pj = np.take(points, intp(topo, "spoke_ring")[sl], axis=0)
     jx, jy = pj[:, 0], pj[:, 1]
-    pa = np.take(points, topo.spoke_a[sl], axis=0)
-    pb = np.take(points, topo.spoke_b[sl], axis=0)
+    pa = np.take(points, intp(topo, "spoke_a")[sl], axis=0)
+    pb = np.take(points, intp(topo, "spoke_b")[sl], axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         ax, ay = pa[:, 0] - jx, pa[:, 1] - jy
         bx, by = pb[:, 0] - jx, pb[:, 1] - jy
@@ -382,8 +383,8 @@ def local_scale(points: np.ndarray, topo: Topology, blk: Block, subset: np.ndarr
     if _fast.active(topo):
         return _fast.local_scale(points, topo, blk, subset)
     a = blk.nodes.start
-    loc = topo.ring_loc[blk.ring]
-    nbr = topo.ring_nbr[blk.ring]
+    loc = intp(topo, "ring_loc")[blk.ring]
+    nbr = intp(topo, "ring_nbr")[blk.ring]
     count = blk.ring_count
     n = blk.size
     if subset is not None:
@@ -394,7 +395,7 @@ def local_scale(points: np.ndarray, topo: Topology, blk: Block, subset: np.ndarr
         rel = remap[loc - a]
     else:
         rel = loc - a
-    d = np.take(points, nbr, axis=0) - np.take(points, topo.free_nodes[loc], axis=0)
+    d = np.take(points, nbr, axis=0) - np.take(points, intp(topo, "free_nodes")[loc], axis=0)
     ln = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])
     return np.bincount(rel, weights=ln, minlength=n) / count
 

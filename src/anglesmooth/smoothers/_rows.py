@@ -112,9 +112,10 @@ def _layout(topo: Topology, blk: Block, subset: np.ndarray | None):
         q_rel, q_v, q_ids = remap[q_rel[keep]], q_v[keep], q_ids[keep]
         n = subset.shape[0]
     t_rows, q_rows = _Rows(t_rel, n), _Rows(q_rel, n)
-    t_cols = tuple(np.ascontiguousarray(t_v[t_rows.perm, k]) for k in (1, 2))
-    q_cols = tuple(np.ascontiguousarray(q_v[q_rows.perm, k]) for k in (1, 2, 3))
-    t_rel, q_rel = t_rel[t_rows.perm], q_rel[q_rows.perm]
+    # intp: numpy gathers with int32 indices (the topology's tables) convert them every time
+    t_cols = tuple(np.ascontiguousarray(t_v[t_rows.perm, k], dtype=np.intp) for k in (1, 2))
+    q_cols = tuple(np.ascontiguousarray(q_v[q_rows.perm, k], dtype=np.intp) for k in (1, 2, 3))
+    t_rel, q_rel = t_rel[t_rows.perm].astype(np.intp), q_rel[q_rows.perm].astype(np.intp)
     t_ids, q_ids = t_ids[t_rows.perm], q_ids[q_rows.perm]  # incidence row of each layout row
     t_rows.perm = q_rows.perm = None  # applied; not needed again
     return n, t_rows, t_rel, t_cols, q_rows, q_rel, q_cols, t_ids, q_ids
