@@ -122,7 +122,7 @@ METHOD_KERNELS = {
 # every kernel's parameters are known)
 PER_NODE = {"nodes": 0, "x": 0, "X": 1, "scale": 0}
 SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "rp", "nbr", "tp", "tv", "qp", "qv", "directions", "fl"}
-SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest", "alo", "ahi"}  # or one value per node, or empty
+SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest", "alo", "ahi", "strict"}  # or one value per node, or empty
 
 _ENV = "ANGLESMOOTH_KERNEL"
 _kernels = None  # the compiled module, imported on first use
@@ -508,7 +508,7 @@ class FastGeometry:
         return s.reshape(X.shape[:-2] + (self.n,))
 
     def compass(self, x, scale, iterations: int, radius: float, area_band: float | None, directions: np.ndarray,
-                area_limits=None):
+                area_limits=None, strict=None):
         """:func:`._local.optimize` from positions ``x`` (n, 2): (positions, scores)."""
         t = self._topo
         _, _, tp, qp = _csr(t)
@@ -518,6 +518,7 @@ class FastGeometry:
             _k().compass, self._pts, np.ascontiguousarray(x, dtype=np.float64), self._nodes, tp, t.tri_verts, qp,
             t.quad_verts, np.ascontiguousarray(scale, dtype=np.float64), int(iterations), float(radius), band,
             directions, self._fl, lo, hi,
+            np.zeros(0, np.bool_) if strict is None else np.ascontiguousarray(strict, dtype=np.bool_),
         )
 
 

@@ -70,7 +70,13 @@ The robust default (``guard=True``)
        largest below 1/0.8 of its area and below the mesh's largest
        (``area_limits``; a cell already outside that range only may not get
        further out): the hybrid of Freitag (1997) and Canann, Tristano &
-       Staten (1998).
+       Staten (1998).  At a node of well-shaped input cells that has both
+       triangles and quads, the search counts a quad corner ``d`` degrees
+       away from a right angle like a triangle corner ``d`` degrees below
+       60 (``strict_quads``, :func:`._local.strict_quad`), not like one of
+       ``90 - d``: otherwise it shears the good outer quads of a boundary
+       layer (92.7 deg) up to 116-125 deg to lift the triangles beside them
+       from 40 to 44 deg.
 
     Size uniformity (issue 12).  Without stage 4 the default's area ratio on
     the paper-style triangle meshes is the literal rule's (12.9 / 12.2 / 12.8
@@ -138,6 +144,21 @@ The robust default (``guard=True``)
     quads (the default: 50.4): 5 steps, ``opt_below_quad`` 70, 8 % of the
     nodes, quad acceptance at 25 deg all end at 50.1-50.4 deg (5 steps: 38.0
     on one family); it has pair moves the default lacks.
+
+    Maximum angle of boundary layers (issue 12).  gmsh boundary-layer meshes
+    (input maximum 104-109 deg) ended at 109-125 deg (seeds 0-5: 109.4,
+    122.3, 109.9, 119.1, 109.8, 124.9; Laplacian 107.7-121.4), every time
+    an outer layer quad at a tri-quad node sheared by stage 4 (without it:
+    102-108 deg).  Counting such quad corners on the triangles' scale
+    (``-(1 + |cos|) / 2``, ``d`` like ``2 d / 3``) at every tri-quad node:
+    109.8, 115.9, 109.9, 110.8, 107.9, 112.6 deg, but paper-style mixed
+    meshes' mean minimum angle (seeds 0-5) 20.5 -> 18.2 deg; the stricter
+    ``q - 30`` at every tri-quad node: boundary layers 105.4-110.8 deg,
+    paper-style mixed 11.8 deg; at the nodes of well-shaped input cells
+    only (kept): ``2 d / 3`` 109.8-115.9 deg, ``q - 30`` 105.4-110.8 deg
+    (107.1, 106.7, 105.4, 110.8, 109.8, 108.9), minimum angles unchanged
+    (39.9-40.7), paper-style mixed 20.5 -> 20.5 deg; no other family has a
+    free tri-quad node (the mixed two-region mesh's interface is fixed).
 
     Guarantees: no cell is ever inverted, made degenerate or (a quad) made
     non-convex, and an already invalid neighbourhood never gets more invalid
@@ -208,6 +229,7 @@ def step(
     accept_above: float = 20.0,
     accept_above_quad: float = 20.0,
     nearest: bool = True,
+    strict_quads: bool = True,
     floors: Floors | None = None,
 ) -> StepResult:
     """One angle-based pass.
@@ -227,6 +249,11 @@ def step(
         triangles only, ``accept_above_quad`` for a node of a quad: a third of
         the ideal angle (60, 90) for both.  Below it, the node chooses among
         five candidates.  180 makes every node choose.
+    strict_quads : bool
+        In the optimization, nodes of well-shaped input cells (``floors.keep``)
+        that have both triangles and quads score a quad corner ``q`` (``min(angle,
+        180 - angle)``) like a triangle corner of ``q - 30`` (default; see the
+        module docstring).  False: ``q``, as everywhere else.
     nearest : bool
         In that choice, take the candidate nearest the angle position among
         those whose local quality is at least the acceptance threshold (else
@@ -336,7 +363,11 @@ def step(
         if n_opt and worst.size:
             sub = geom.restrict(worst)
             scale = local_scale(pts, topo, blk, subset=worst)
-            new[worst], _ = optimize(sub, new[worst], scale, opt_iterations, area_band=area_band, area_limits=limits)
+            strict = None
+            if strict_quads and floors is not None and floors.keep.any():
+                strict = floors.keep[blk.nodes][worst]
+            new[worst], _ = optimize(sub, new[worst], scale, opt_iterations, area_band=area_band, area_limits=limits,
+                                     strict=strict)
         return new, refused
 
     return run_blocks(points, topo, order, update)
