@@ -109,7 +109,7 @@ COMPILE_S = {"angle_choose": 2.2, "compass": 1.5, "score": 0.7, "ring_mean": 0.3
 _DEFAULT_COMPILE_S = 2.0
 #: The kernels a method's default run calls (for :func:`compile_estimate`; a hint, not a contract).
 METHOD_KERNELS = {
-    "angle": ("angle_choose", "ring_mean", "compass", "_cell_area_range"),
+    "angle": ("angle_choose", "ring_mean", "compass", "score", "_cell_area_range"),
     "laplacian": ("ring_mean", "score"),
     "smart-laplacian": ("ring_mean", "score"),
     "optimization": ("ring_mean", "compass"),
