@@ -160,7 +160,7 @@ def test_kernels_agree_on_random_candidates_valid_invalid_and_degenerate(name, m
     topo = build_topology(mesh)
     rng = np.random.default_rng(2)
     pts = mesh.points
-    checked_invalid = checked_degenerate = 0
+    checked_invalid = checked_degenerate = strict_moved = 0
     for blk in topo.blocks():
         cur = pts[topo.free_nodes[blk.nodes]]
         X = cur[None] + rng.normal(scale=0.05 * np.ptp(pts), size=(6, blk.size, 2))
@@ -179,14 +179,19 @@ def test_kernels_agree_on_random_candidates_valid_invalid_and_degenerate(name, m
         areas = np.sort(signed_areas(pts, topo.tri, topo.quad))
         binding = (areas[len(areas) // 4], areas[3 * len(areas) // 4])  # area limits that bind for many nodes
         # the compiled compass search against optimize's numpy loop
-        for band, limits in ((None, None), (0.8, None), (0.5, None), (0.8, binding)):
-            kw = dict(area_band=band, area_limits=limits)
+        strict = rng.random(blk.size) < 0.5  # these nodes score their quad corners with strict_quad
+        for band, limits, st in ((None, None, None), (0.8, None, None), (0.5, None, None), (0.8, binding, None),
+                                 (None, None, strict), (0.8, binding, strict)):
+            kw = dict(area_band=band, area_limits=limits, strict=st)
             for a, b in zip(optimize(fast, cur, scale, 4, **kw), optimize(ref, cur, scale, 4, **kw)):
                 np.testing.assert_array_equal(a, b)
+        plain, _ = optimize(ref, cur, scale, 4)
+        strict_moved += int((optimize(ref, cur, scale, 4, strict=strict)[0] != plain).any(axis=1).sum())
         np.testing.assert_array_equal(_fast.laplacian_target(pts, topo, blk), laplacian_target(pts, topo, blk))
         np.testing.assert_array_equal(_fast.local_scale(pts, topo, blk, sub), local_scale(pts, topo, blk, sub))
         np.testing.assert_allclose(_fast.angle_target(pts, topo, blk), angle_target(pts, topo, blk), rtol=0, atol=1e-12)
     assert checked_invalid > 0 and checked_degenerate > 0  # the invalid branches were exercised
+    assert (strict_moved > 0) == (name == "mixed")  # strict_quad changes the search only at nodes of both kinds
 
 
 def test_auto_uses_compiled_kernels_only_on_large_meshes(monkeypatch):

@@ -621,3 +621,17 @@ def test_optimization_size_guard_keeps_the_area_ratio_near_laplacian():
     for name, opts in (("lap", ("laplacian", {})), ("opt", ("optimization", {})), ("free", ("optimization", {"size_beta": None}))):
         ratio[name] = summarize(smooth(mesh, opts[0], 10, topology=topo, **opts[1]).points, topo)["area_ratio"]
     assert ratio["opt"] < 3 * ratio["lap"] < ratio["free"]
+
+
+def test_strict_quad_scores_a_quad_corner_like_a_triangle_corner_30_degrees_smaller():
+    """``strict_quad`` (the default ``angle``'s optimization at nodes of well-shaped tri-quad input cells):
+    a quad corner q (= min(angle, 180 - angle)) scores -cos(q - 30), the triangle score of q - 30, and
+    stays monotone below q = 30 (so the worst quads still order); invalid rows (+inf) stay +inf."""
+    from anglesmooth.smoothers._local import strict_quad
+
+    q = np.radians(np.array([90.0, 75.0, 60.0, 45.0, 30.0]))
+    np.testing.assert_allclose(strict_quad(-np.cos(q)), -np.cos(q - np.radians(30)), rtol=0, atol=1e-15)
+    qs = np.radians(np.linspace(0.0, 90.0, 901))
+    s = strict_quad(-np.cos(qs))
+    assert (np.diff(s) > 0).all() and s[0] < -1 < s[-1]
+    assert strict_quad(np.array([np.inf]))[0] == np.inf

@@ -109,7 +109,7 @@ COMPILE_S = {"angle_choose": 2.2, "compass": 1.5, "score": 0.7, "ring_mean": 0.3
 _DEFAULT_COMPILE_S = 2.0
 #: The kernels a method's default run calls (for :func:`compile_estimate`; a hint, not a contract).
 METHOD_KERNELS = {
-    "angle": ("angle_choose", "ring_mean", "compass", "_cell_area_range"),
+    "angle": ("angle_choose", "ring_mean", "compass", "score", "_cell_area_range"),
     "laplacian": ("ring_mean", "score"),
     "smart-laplacian": ("ring_mean", "score"),
     "optimization": ("ring_mean", "compass"),
@@ -122,7 +122,7 @@ METHOD_KERNELS = {
 # every kernel's parameters are known)
 PER_NODE = {"nodes": 0, "x": 0, "X": 1, "scale": 0}
 SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "rp", "nbr", "tp", "tv", "qp", "qv", "directions", "fl"}
-SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest", "alo", "ahi"}  # or one value per node, or empty
+SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest", "alo", "ahi", "strict"}  # or one value per node, or empty
 
 _ENV = "ANGLESMOOTH_KERNEL"
 _kernels = None  # the compiled module, imported on first use
@@ -512,7 +512,7 @@ class FastGeometry:
         return s.reshape(X.shape[:-2] + (self.n,))
 
     def compass(self, x, scale, iterations: int, radius: float, area_band: float | None, directions: np.ndarray,
-                area_limits=None):
+                area_limits=None, strict=None):
         """:func:`._local.optimize` from positions ``x`` (n, 2): (positions, scores)."""
         t = self._topo
         _, _, tp, qp = _csr(t)
@@ -522,6 +522,7 @@ class FastGeometry:
             _k().compass, self._pts, np.ascontiguousarray(x, dtype=np.float64), self._nodes, tp, t.tri_verts, qp,
             t.quad_verts, np.ascontiguousarray(scale, dtype=np.float64), int(iterations), float(radius), band,
             directions, self._fl, lo, hi,
+            np.zeros(0, np.bool_) if strict is None else np.ascontiguousarray(strict, dtype=np.bool_),
         )
 
 

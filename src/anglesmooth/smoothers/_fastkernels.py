@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ._local import INVALID, INVERTED_WEIGHT
+from ._local import _C30, INVALID, INVERTED_WEIGHT
 
 # error_model="numpy": x / 0 gives inf / NaN as in numpy instead of raising; no fastmath, so no
 # reassociation or fused multiply-adds and the same rounding as numpy
@@ -162,6 +162,7 @@ def _node_rows(pts, f, tp, tv, qp, qv, buf):
         buf[k, 11] = 1.0 if ok2 else 0.0
         k += 1
     buf[buf.shape[0] - 1, 0] = 0.0  # the cell to start the next score with (see _node_score_rows)
+    buf[buf.shape[0] - 1, 1] = 0.0  # quad corners score -|cos| (1: ``strict_quad``; see compass)
 
 
 @_helper
@@ -182,6 +183,9 @@ def _node_score_rows(px, py, f, tp, qp, buf, fl, cut, lo0, hi0):
     ``lo0``, ``hi0``: an area band (``-inf``, ``inf``: none): ``-inf`` where an incident cell's signed
     area (``_tri_area`` / ``_quad_area``, from the same products as the score) is outside
     [lo0, hi0], as :meth:`BlockGeometry.banded_score` gives, found in the same pass over the cells.
+
+    Where ``buf``'s last row has a 1 in column 1 (``compass`` sets it for its ``strict`` nodes that
+    also have triangles), the quad corners score ``_local.strict_quad`` (the same operations).
     """
     best = np.inf
     bad = 0.0
@@ -192,6 +196,7 @@ def _node_score_rows(px, py, f, tp, qp, buf, fl, cut, lo0, hi0):
     q0 = qp[f]
     m = nt + qp[f + 1] - q0
     hint = buf.shape[0] - 1
+    strict = buf[hint, 1] > 0
     k = int(buf[hint, 0])
     if k >= m:
         k = 0
@@ -248,6 +253,12 @@ def _node_score_rows(px, py, f, tp, qp, buf, fl, cut, lo0, hi0):
                     ok = ok & (a2 >= fl[3, r]) & (l1 >= fl[4, r]) & (l3 >= fl[5, r])
             valid = ok & (a0 < np.inf) & (a1 < np.inf) & (a3 < np.inf)
             v = -cm
+            if strict and valid:  # _local.strict_quad
+                c = -v
+                if c <= _C30:
+                    v = -(_C30 * c + 0.5 * math.sqrt(max(1.0 - c * c, 0.0)))
+                else:
+                    v = _C30 - 1.0 - c
             if not valid:
                 dx, dy = x1 + ux - px, y1 + uy - py
                 fx, fy = x3 - x1, y3 - y1
@@ -486,9 +497,10 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
 
 
 @_kernel
-def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, directions, fl, alo, ahi):
+def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, directions, fl, alo, ahi, strict):
     """``optimize``: compass search per node, optionally within an area band (``band`` < 0: none)
-    and the area limits ``alo``, ``ahi`` (-inf, inf: none)."""
+    and the area limits ``alo``, ``ahi`` (-inf, inf: none); ``strict`` (per node, empty: none): the
+    nodes that score their quad corners with ``_local.strict_quad`` where they also have triangles."""
     n = nodes.shape[0]
     out = np.empty((n, 2))
     s_out = np.empty(n)
@@ -497,6 +509,8 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
         f = nodes[i]
         px, py = x[i, 0], x[i, 1]
         _node_rows(pts, f, tp, tv, qp, qv, buf)
+        if strict.shape[0] > 0 and strict[i] and tp[f + 1] > tp[f]:
+            buf[buf.shape[0] - 1, 1] = 1.0
         s0 = _node_score_rows(px, py, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf)
         lo0, hi0 = -np.inf, np.inf  # no band
         if band >= 0:

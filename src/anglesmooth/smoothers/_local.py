@@ -33,7 +33,7 @@ from ..topology import Block, Topology
 from . import _fast
 from ._blocks import intp
 from ._floors import Floors
-from ._rows import _CHUNK, _SMALL, _SMALL_SUBSET, _layout, _rowreduce, _Rows  # noqa: F401  (re-exported)
+from ._rows import _C30, _CHUNK, _SMALL, _SMALL_SUBSET, _layout, _rowreduce, _Rows, strict_quad  # noqa: F401
 
 INVALID = -3.0
 INVERTED_WEIGHT = 1000.0
@@ -126,12 +126,16 @@ class BlockGeometry:
                 setattr(g, name, getattr(self, name)[keep])
         return g
 
-    def score(self, X: np.ndarray, band: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    def score(self, X: np.ndarray, band: tuple | None = None, strict: np.ndarray | None = None) -> np.ndarray:
         """Local score of every node at candidate positions ``X`` (..., n, 2) -> (..., n).
 
         With ``band`` = (lo0, hi0) (per node), -inf where an incident area leaves [lo0, hi0]: the
         areas come out of the same pass over the cells as the score (see :meth:`banded_score`).
+        With ``strict`` (per node, bool), the quad corners of those nodes that also have triangles
+        score :func:`strict_quad` (on the triangles' scale) instead of ``-|cos|``.
         """
+        # per quad row: its node is strict and has triangles too
+        q_strict = None if strict is None else ((np.bincount(self.t_rel, minlength=self.n) > 0) & strict)[self.q_rel]
         X = np.asarray(X, dtype=np.float64)
         lead = X.shape[:-2]
         Xf = X.reshape((-1, self.n, 2))
@@ -155,6 +159,8 @@ class BlockGeometry:
                         px = np.repeat(x0[k0:k1, nodes], d, axis=1)
                         py = np.repeat(y0[k0:k1, nodes], d, axis=1)
                         vals, ok, ar = kernel(px, py, r0, r1, band is not None)
+                        if q_strict is not None and rel is self.q_rel:
+                            vals = np.where(q_strict[r0:r1], strict_quad(vals), vals)
                         best[k0:k1, nodes] = np.minimum(best[k0:k1, nodes], _rowreduce(vals, d))
                         if band is not None:
                             lo[k0:k1, nodes] = np.minimum(lo[k0:k1, nodes], _rowreduce(ar, d))
@@ -173,13 +179,13 @@ class BlockGeometry:
             out = np.where((lo >= band[0]) & (hi <= band[1]), out, -np.inf)
         return out.reshape(lead + (self.n,))
 
-    def banded_score(self, X: np.ndarray, lo0: np.ndarray, hi0: np.ndarray) -> np.ndarray:
+    def banded_score(self, X: np.ndarray, lo0: np.ndarray, hi0: np.ndarray, strict=None) -> np.ndarray:
         """The score at ``X`` where every incident area stays within [lo0, hi0] (per node), -inf elsewhere.
 
         The same numbers as ``np.where`` of :meth:`area_range` and :meth:`score`, in one pass: the
         score kernels' corner cross products give the areas exactly (``_tri_chunk``, ``_quad_chunk``).
         """
-        return self.score(X, (lo0, hi0))
+        return self.score(X, (lo0, hi0), strict)
 
     def _tri_chunk(self, px, py, r0, r1, want_area=False):
         """(-max cos of the three corners, valid, area or None) for triangle rows r0:r1.
@@ -441,6 +447,7 @@ def optimize(
     radius: float = 0.25,
     area_band: float | None = None,
     area_limits: tuple[float, float] | None = None,
+    strict: np.ndarray | None = None,
 ):
     """Local max-min-angle optimization by compass (pattern) search, vectorized over nodes.
 
@@ -460,11 +467,13 @@ def optimize(
     (lo, hi), with ``area_band``, also keeps that smallest cell at least at
     ``min(lo, its start area)`` and the largest at most ``max(hi, its start
     area)`` (the default ``angle`` passes the mesh's area range at the start
-    of the pass).  Returns (positions, scores).
+    of the pass).  ``strict`` (per node, bool): those nodes score their quad corners with
+    :func:`strict_quad` where they also have triangles (see ``angle.step``'s ``strict_quads``).
+    Returns (positions, scores).
     """
     if isinstance(geom, _fast.FastGeometry):  # the same search, one compiled loop per node
-        return geom.compass(x, scale, iterations, radius, area_band, _COMPASS, area_limits)
-    s0 = geom.score(x)
+        return geom.compass(x, scale, iterations, radius, area_band, _COMPASS, area_limits, strict)
+    s0 = geom.score(x, strict=strict)
     if area_band is not None:
         lr, hr = geom.area_range(x)
         lo0, hi0 = area_band * lr, hr / area_band
@@ -475,7 +484,7 @@ def optimize(
     idx = np.arange(x.shape[0])
     for _ in range(iterations):
         cands = x[None] + _COMPASS[:, None, :] * r[None, :, None]
-        sc = geom.score(cands) if area_band is None else geom.banded_score(cands, lo0, hi0)
+        sc = geom.score(cands, strict=strict) if area_band is None else geom.banded_score(cands, lo0, hi0, strict)
         k = np.argmax(sc, axis=0)
         sk = sc[k, idx]
         better = sk > s0

@@ -2,10 +2,13 @@
 
 Every incident cell of a block's node is one *row*; the rows are grouped by the number of rows per
 node (:class:`_Rows`) so that a per-node minimum is a few vectorized operations, and the layout
-(which depends on the topology only) is built once per block (:func:`_layout`).
+(which depends on the topology only) is built once per block (:func:`_layout`).  :func:`strict_quad`
+rescales the quad rows' scores where the optimization asks for it.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -119,3 +122,21 @@ def _layout(topo: Topology, blk: Block, subset: np.ndarray | None):
     t_ids, q_ids = t_ids[t_rows.perm], q_ids[q_rows.perm]  # incidence row of each layout row
     t_rows.perm = q_rows.perm = None  # applied; not needed again
     return n, t_rows, t_rel, t_cols, q_rows, q_rel, q_cols, t_ids, q_ids
+
+
+_C30 = math.cos(math.pi / 6)
+
+
+def strict_quad(v: np.ndarray) -> np.ndarray:
+    """A quad corner's score ``v = -|cos q|`` (``q = min(angle, 180 - angle)``) as ``-cos(q - 30 deg)``.
+
+    That is the triangle score of ``q - 30``: a quad corner ``d`` degrees away from a right angle
+    counts like a triangle corner ``d`` degrees below 60 (a 116 deg quad corner like a 34 deg
+    triangle corner; the plain ``-|cos|`` counts it like 64 deg).  Exact, no trigonometry:
+    ``cos(q - 30) = cos 30 |cos q| + sin 30 sin q``; monotone in ``q``, continued linearly in
+    ``|cos q|`` below ``q = 30`` (score -1 there), so the worst quads still order.  Invalid rows
+    (``+inf``) stay ``+inf``.
+    """
+    c = -v
+    s = np.sqrt(np.maximum(1.0 - c * c, 0.0))
+    return np.where(c <= _C30, -(_C30 * c + 0.5 * s), _C30 - 1.0 - c)

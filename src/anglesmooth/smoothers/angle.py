@@ -70,7 +70,19 @@ The robust default (``guard=True``)
        largest below 1/0.8 of its area and below the mesh's largest
        (``area_limits``; a cell already outside that range only may not get
        further out): the hybrid of Freitag (1997) and Canann, Tristano &
-       Staten (1998).
+       Staten (1998).  At a node of well-shaped input cells that has both
+       triangles and quads, the search counts a quad corner ``d`` degrees
+       away from a right angle like a triangle corner ``d`` degrees below
+       60 (``strict_quads``, :func:`._local.strict_quad`), not like one of
+       ``90 - d``: otherwise it shears the good outer quads of a boundary
+       layer (92.7 deg) up to 116-125 deg to lift the triangles beside them
+       from 40 to 44 deg.  A node of quads only that scores higher where it
+       is (C) than at its stage 1-2 choice and is at least ``resume_above``
+       (45 deg) good there -- it was optimized in the previous pass and
+       pulled back toward A -- resumes the search from C instead, with
+       ``resume_iterations`` (12) steps from ``resume_radius`` (0.0625)
+       times the mean edge length: otherwise it restarts from A every pass
+       and never gets closer than 4 coarse steps to the local optimum.
 
     Size uniformity (issue 12).  Without stage 4 the default's area ratio on
     the paper-style triangle meshes is the literal rule's (12.9 / 12.2 / 12.8
@@ -139,6 +151,46 @@ The robust default (``guard=True``)
     nodes, quad acceptance at 25 deg all end at 50.1-50.4 deg (5 steps: 38.0
     on one family); it has pair moves the default lacks.
 
+    Maximum angle of boundary layers (issue 12).  gmsh boundary-layer meshes
+    (input maximum 104-109 deg) ended at 109-125 deg (seeds 0-5: 109.4,
+    122.3, 109.9, 119.1, 109.8, 124.9; Laplacian 107.7-121.4), every time
+    an outer layer quad at a tri-quad node sheared by stage 4 (without it:
+    102-108 deg).  Counting such quad corners on the triangles' scale
+    (``-(1 + |cos|) / 2``, ``d`` like ``2 d / 3``) at every tri-quad node:
+    109.8, 115.9, 109.9, 110.8, 107.9, 112.6 deg, but paper-style mixed
+    meshes' mean minimum angle (seeds 0-5) 20.5 -> 18.2 deg; the stricter
+    ``q - 30`` at every tri-quad node: boundary layers 105.4-110.8 deg,
+    paper-style mixed 11.8 deg; at the nodes of well-shaped input cells
+    only (kept): ``2 d / 3`` 109.8-115.9 deg, ``q - 30`` 105.4-110.8 deg
+    (107.1, 106.7, 105.4, 110.8, 109.8, 108.9), minimum angles unchanged
+    (39.9-40.7), paper-style mixed 20.5 -> 20.5 deg; no other family has a
+    free tri-quad node (the mixed two-region mesh's interface is fixed).
+
+    Toward ``optimization`` on the distorted toothed quads (issue 12): the
+    worst cells are boundary quads with two fixed corners, whose free node
+    the optimization balanced between two cells (50.59 / 50.59 deg) and the
+    default did not (50.19 / 50.99).  Resuming from C (above) at every
+    worst node with 4 steps: jittered toothed quads mean minimum 50.36 ->
+    50.51 deg; with half / a quarter of the radius 50.58 / 50.58; 8 steps at
+    a quarter of it (0.0625) 50.61 (optimization 50.61), but paper-style
+    triangles 24.83 -> 24.52 deg with area ratios 1.2-1.8 x, paper-style
+    mixed 22.92 -> 22.76 (with the stage 1 test below), paper-style quads
+    29.32 -> 27.82 deg; only where C is at least
+    45 deg good: paper-style quads unchanged, toothed 50.6107 against
+    optimization's 50.6108, paper-style mixed -0.5 deg; at quad-only nodes
+    with 12 steps from 0.0625 (kept): toothed 50.6126 / 50.6126 (jittered /
+    distorted; optimization 50.6108 / 50.6111), quad-recombined 53.01 ->
+    54.02, good quads 53.85 -> 54.33, paper-style quads unchanged, paper-
+    style mixed unchanged, but the distorted toothed quads' area ratio 7.4
+    -> 10.6 (median; Laplacian 11.2), and with numpy kernels 1.7 x the CPU
+    time per pass there (8 steps: 50.6107, short of 50.6108).  Scoring the stage 1 "no worse than
+    staying" test of tri-quad nodes of well-shaped input cells with
+    ``strict_quad`` too: boundary layers (seeds 0-5) 103.7-106.4 deg and
+    paper-style mixed 22.39 -> 22.92 deg (seeds 0-2), but the paper-style
+    mixed seed 5 area ratio 28.6 -> 54.4 (literal 28.5) and thicker layers
+    (0.1 instead of 0.06) 105.9-115.1 -> 113.5-118.9 deg; scoring all of
+    stages 1-2 of those nodes with it: paper-style mixed 22.39 -> 15.29 deg.
+
     Guarantees: no cell is ever inverted, made degenerate or (a quad) made
     non-convex, and an already invalid neighbourhood never gets more invalid
     cells (every candidate is checked exactly, and C is one of them); with
@@ -191,6 +243,15 @@ def _per_node(topo: Topology, blk, tri_deg: float, quad_deg: float) -> np.ndarra
     return hit
 
 
+def _quads_only(topo: Topology, blk) -> np.ndarray:
+    """Per block node: it has no triangle (cached per block, topology only)."""
+    key = ("angle-quads-only", blk.nodes.start, blk.nodes.stop)
+    hit = topo._cache.get(key)
+    if hit is None:
+        hit = topo._cache[key] = np.bincount(topo.tri_loc[blk.tris] - blk.nodes.start, minlength=blk.size) == 0
+    return hit
+
+
 def step(
     points: np.ndarray,
     topo: Topology,
@@ -208,6 +269,10 @@ def step(
     accept_above: float = 20.0,
     accept_above_quad: float = 20.0,
     nearest: bool = True,
+    strict_quads: bool = True,
+    resume_iterations: int = 12,
+    resume_radius: float = 0.0625,
+    resume_above: float = 45.0,
     floors: Floors | None = None,
 ) -> StepResult:
     """One angle-based pass.
@@ -227,6 +292,16 @@ def step(
         triangles only, ``accept_above_quad`` for a node of a quad: a third of
         the ideal angle (60, 90) for both.  Below it, the node chooses among
         five candidates.  180 makes every node choose.
+    resume_iterations, resume_radius, resume_above : int, float, float
+        Stage 4 at a node of quads only that scores higher staying than at its
+        stage 1-2 choice and at least ``resume_above`` degrees there: that many
+        steps from the current position, from this radius (times the mean edge
+        length).  0 iterations: every worst node starts from its choice.
+    strict_quads : bool
+        In the optimization, nodes of well-shaped input cells (``floors.keep``)
+        that have both triangles and quads score a quad corner ``q`` (``min(angle,
+        180 - angle)``) like a triangle corner of ``q - 30`` (default; see the
+        module docstring).  False: ``q``, as everywhere else.
     nearest : bool
         In that choice, take the candidate nearest the angle position among
         those whose local quality is at least the acceptance threshold (else
@@ -336,7 +411,25 @@ def step(
         if n_opt and worst.size:
             sub = geom.restrict(worst)
             scale = local_scale(pts, topo, blk, subset=worst)
-            new[worst], _ = optimize(sub, new[worst], scale, opt_iterations, area_band=area_band, area_limits=limits)
+            strict = None
+            if strict_quads and floors is not None and floors.keep.any():
+                strict = floors.keep[blk.nodes][worst]
+            fresh = np.arange(worst.size)
+            if resume_iterations > 0:
+                # a quad node that scores higher staying (optimized in the previous pass, pulled back by
+                # stages 1-2) and is already good there resumes the search from there, finer and longer
+                s_c = sub.score(cur[worst])
+                back = (s_c > best[worst]) & (s_c >= -np.cos(np.radians(resume_above)))
+                back &= _quads_only(topo, blk)[worst]
+                if back.any():
+                    fresh, b = np.flatnonzero(~back), np.flatnonzero(back)
+                    new[worst[b]], _ = optimize(sub.restrict(b), cur[worst[b]], scale[b], resume_iterations,
+                                                resume_radius, area_band, limits)
+            if fresh.size:
+                w = worst[fresh]
+                gf = sub if fresh.size == worst.size else sub.restrict(fresh)
+                new[w], _ = optimize(gf, new[w], scale[fresh], opt_iterations, area_band=area_band, area_limits=limits,
+                                     strict=None if strict is None else strict[fresh])
         return new, refused
 
     return run_blocks(points, topo, order, update)
