@@ -694,3 +694,19 @@ def test_ctrl_c_while_the_modules_load_is_one_line_and_130(work, module):
     assert p.returncode == 130, p.stderr
     assert error_line(p.stderr.decode()) == PREFIX + "interrupted"
     assert not (work / "out.vtu").exists()
+
+
+def test_xdmf_hdf5_data_is_committed_with_the_other_outputs(work):
+    """A run that fails after the mesh is written (here: --json onto a full device) leaves no new .h5
+    and keeps the one that was there; a run that succeeds writes both files (a readable mesh)."""
+    if not stat.S_ISCHR(os.stat("/dev/full").st_mode):
+        pytest.fail("/dev/full is not a character device on this machine")
+    (work / "out.h5").write_bytes(b"old")
+    p = run_cli(work / "in.vtu", work / "out.xdmf", "--json", "/dev/full")
+    assert p.returncode == 3, p.stderr
+    assert (work / "out.h5").read_bytes() == b"old"
+    assert not (work / "out.xdmf").exists()
+    assert not [f for f in os.listdir(work) if ".tmp" in f]
+    p = run_cli(work / "in.vtu", work / "out.xdmf")
+    assert p.returncode == 0, p.stderr
+    assert read(work / "out.xdmf").n_points == read(work / "in.vtu").n_points

@@ -286,8 +286,11 @@ def _write_xdmf_hdf(tmp: str, out, final: Path) -> None:
     meshio names the ``.h5`` after the ``.xdmf`` it writes and refers to it by
     that name (which is why a temporary ``.xdmf`` used to get inline XML): both
     are written under their final names in a temporary directory beside
-    ``final``; the ``.h5`` is moved into place, the ``.xdmf`` goes to ``tmp``,
-    which :func:`write` renames last.
+    ``final``; the ``.xdmf`` goes to ``tmp``, which :func:`write` renames, and the
+    ``.h5`` is written as an output of its own (:func:`._paths.atomic_write`): inside
+    a command's :class:`._paths.Outputs` it is staged and committed with the other
+    outputs (so a run that fails after the write leaves no ``.h5`` behind and keeps
+    the one that was there), outside one it is renamed into place at once.
     """
     import meshio
 
@@ -296,10 +299,11 @@ def _write_xdmf_hdf(tmp: str, out, final: Path) -> None:
         x = Path(d) / final.name
         meshio.xdmf.write(str(x), out, data_format="HDF")
         h5 = x.with_suffix(".h5")
-        with open(h5, "rb+") as f:
-            os.fsync(f.fileno())
+        target = final.with_suffix(".h5")  # as the command's outputs name it, unless a symlinked OUTPUT moved it
+        if os.path.realpath(parent / h5.name) != os.path.realpath(target):
+            target = parent / h5.name
+        _paths.atomic_write(target, lambda t: os.replace(h5, t), suffix=".h5")
         os.replace(x, tmp)
-        os.replace(h5, parent / h5.name)
 
 
 def _write_meshio(tmp: str, out, fmt: str, src: _Source | None, binary: bool | None, final: Path | None = None) -> None:
