@@ -116,7 +116,8 @@ class Mesh2D:
         set_(self, "triangles", _ro(tri))
         set_(self, "quads", _ro(quad))
         for name, cells in (("triangle", tri), ("quad", quad)):
-            if cells.size and (cells.min() < 0 or cells.max() >= n):
+            # one pass: a negative int64 seen as uint64 is above any node count
+            if cells.size and int(cells.view(np.uint64).max()) >= n:
                 bad = int(np.flatnonzero(((cells < 0) | (cells >= n)).any(axis=1))[0])
                 raise InvalidMeshError(
                     f"{name} {bad} references node {int(cells[bad].max() if cells[bad].max() >= n else cells[bad].min())}, "
@@ -206,6 +207,11 @@ def _check_size(pts: np.ndarray) -> None:
     if hi > MAX_COORD or lo < -MAX_COORD:
         i = int(np.flatnonzero((np.abs(pts) > MAX_COORD).any(axis=1))[0])
         raise InvalidMeshError(f"node {i} has an absurd coordinate {pts[i].tolist()} (limit {MAX_COORD:g})")
+    # the diagonal is below MIN_SIZE only if every x is that close to x0 and every y to y0 (node 0):
+    # when the smallest or the largest coordinate is near neither, it is not (no more passes)
+    x0, y0 = float(pts[0, 0]), float(pts[0, 1])
+    if any(min(abs(v - x0), abs(v - y0)) >= MIN_SIZE for v in (lo, hi)):
+        return
     x, y = pts[:, 0], pts[:, 1]  # 1-D strided reductions: fast, unlike those over axis 0 of (N, 2)
     size = float(np.hypot(x.max() - x.min(), y.max() - y.min()))
     if 0 < size < MIN_SIZE:

@@ -61,20 +61,11 @@ class _Corners(NamedTuple):
 def _edges(points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(ex, ey), each (k, n): e_k = p_{k+1} - p_k for (n, k) cells."""
     pts = np.asarray(points, dtype=np.float64)
-    # (k, n); a gather takes the layout of its index.  intp: numpy's gathers with int32 indices (the
-    # topology's tables) are about twice as slow, more than the cast costs
-    index = np.ascontiguousarray(cells.T, dtype=np.intp)
-    if pts.ndim == 2 and pts.shape[1] == 2:
-        # one complex gather fetches x and y of a node together (one cache line, not two: the nodes
-        # of a cell are anywhere in memory); the differences are taken from its real and imaginary
-        # parts, so the values are the same bits as from the x and y columns
-        c = np.ascontiguousarray(pts).view(np.complex128).reshape(-1)[index]
-        parts = (c.real, c.imag)
-    else:
-        parts = (pts[:, 0][index], pts[:, 1][index])
+    index = np.ascontiguousarray(cells.T)  # (k, n); a gather takes the layout of its index
     out = []
-    for c in parts:
-        e = np.empty(c.shape)
+    for coord in (pts[:, 0], pts[:, 1]):
+        c = coord[index]
+        e = np.empty_like(c)
         np.subtract(c[1:], c[:-1], out=e[:-1])
         np.subtract(c[0], c[-1], out=e[-1])
         out.append(e)

@@ -87,6 +87,8 @@ def _edge_spokes(tri: np.ndarray, quad: np.ndarray, centre: np.ndarray, ring: np
 def _with_diagonals(quad: np.ndarray, loc_of: np.ndarray, nf: int, spokes):
     """Merge the diagonal spokes of quads after the edge spokes (loc, ring, a, b, frac) of each node.
 
+    ``spokes`` is a list; its entries are dropped (set to None) as they are merged.
+
     Every quad corner j (b before it, a after it) gives the opposite corner's
     node, when free, a spoke to j with sides a and b and frac 1/2; the
     diagonal spokes of one node are in corner order.
@@ -114,21 +116,24 @@ def _with_diagonals(quad: np.ndarray, loc_of: np.ndarray, nf: int, spokes):
     del first, shift
     m = off[-1]
     # corner qc = 4 * cell + r: its node, and the nodes after (a) and before (b) it in the cell,
-    # gathered straight from the quads (no shifted copies of the whole corner table)
+    # gathered straight from the quads (no shifted copies of the whole corner table), each one just
+    # before it is merged and its index freed right after (a smaller peak of memory)
     flat = quad.ravel()
-    cell4 = qc & ~3
-    after = qc + 1
-    after &= 3
-    after |= cell4
-    before = qc + 3
-    before &= 3
-    before |= cell4
-    del cell4
+
+    def beside(step):
+        near = qc + step
+        near &= 3
+        near |= qc & ~3
+        return flat[near]
+
+    diagonal = (lambda: d_loc, lambda: flat[qc], lambda: beside(1), lambda: beside(3), lambda: 0.5)
     merged = []
-    for e_col, d_col in zip(spokes, (d_loc, flat[qc], flat[after], flat[before], 0.5)):
+    for i, d_col in enumerate(diagonal):
+        e_col, spokes[i] = spokes[i], None  # the caller's list lets go of the edge column once merged
         col = np.empty(m, e_col.dtype)
         col[pos_e] = e_col
-        col[pos_d] = d_col
+        del e_col
+        col[pos_d] = d_col()
         merged.append(col)
     return tuple(merged)
 
@@ -192,7 +197,7 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
     # edge spokes: one per ring entry (a free node is interior and manifold)
     e = ring_edge[entry]
     del entry, ring_edge
-    spokes = (ring_loc, ring_nbr, *_edge_spokes(tri, quad, free_nodes[ring_loc], ring_nbr, up[e], down[e]))
+    spokes = [ring_loc, ring_nbr, *_edge_spokes(tri, quad, free_nodes[ring_loc], ring_nbr, up[e], down[e])]
     del e, up, down
     if nq:
         spokes = _with_diagonals(quad, loc_of, nf, spokes)
