@@ -418,13 +418,17 @@ def step(
             if resume_iterations > 0:
                 # a quad node that scores higher staying (optimized in the previous pass, pulled back by
                 # stages 1-2) and is already good there resumes the search from there, finer and longer
-                s_c = sub.score(cur[worst])
-                back = (s_c > best[worst]) & (s_c >= -np.cos(np.radians(resume_above)))
-                back &= _quads_only(topo, blk)[worst]
-                if back.any():
-                    fresh, b = np.flatnonzero(~back), np.flatnonzero(back)
-                    new[worst[b]], _ = optimize(sub.restrict(b), cur[worst[b]], scale[b], resume_iterations,
-                                                resume_radius, area_band, limits)
+                # (scored at the quad-only nodes alone: the others never resume)
+                q = np.flatnonzero(_quads_only(topo, blk)[worst])
+                if q.size:
+                    s_c = (sub if q.size == worst.size else sub.restrict(q)).score(cur[worst[q]])
+                    b = q[(s_c > best[worst[q]]) & (s_c >= -np.cos(np.radians(resume_above)))]
+                    if b.size:
+                        back = np.zeros(worst.size, dtype=bool)
+                        back[b] = True
+                        fresh = np.flatnonzero(~back)
+                        new[worst[b]], _ = optimize(sub.restrict(b), cur[worst[b]], scale[b], resume_iterations,
+                                                    resume_radius, area_band, limits)
             if fresh.size:
                 w = worst[fresh]
                 gf = sub if fresh.size == worst.size else sub.restrict(fresh)
