@@ -66,6 +66,16 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 # --------------------------------------------------------------------------- meshes
 
 
+
+def _entry_points():
+    """The module of the compiled kernels' entry points (``warm_up``, ``angle_choose``): ``_fastcalls``, or
+    ``_fast`` in an older checkout given with ``--src``."""
+    try:
+        from anglesmooth.smoothers import _fastcalls
+    except ImportError:
+        from anglesmooth.smoothers import _fast as _fastcalls
+    return _fastcalls
+
 def make_mesh(kind: str, n_cells: int, seed: int = 0):
     """A Mesh2D from anglesmooth.generate, or a scipy-Delaunay fallback when that module is absent."""
     from anglesmooth.mesh import Mesh2D
@@ -173,7 +183,7 @@ def worker_method(npz: str, method: str, guard: bool, repeat: int, threads: int 
     kernel, jit = "numpy", None
     if _fast.active(topo):
         t0 = time.perf_counter()
-        _fast.warm_up()  # load (or compile) the kernels: paid once per process, not per pass
+        _entry_points().warm_up()  # load (or compile) the kernels: paid once per process, not per pass
         kernel, jit = "numba", time.perf_counter() - t0
     step = SMOOTHERS[method].step
     pts = np.array(mesh.points)
@@ -259,7 +269,7 @@ def worker_breakdown(npz: str, repeat: int) -> dict:
     topo.blocks()
     kernel = "numba" if _fast.active(topo) else "numpy"
     if kernel == "numba":
-        _fast.warm_up()
+        _entry_points().warm_up()
     pts0 = np.array(mesh.points)
     floors = input_floors(pts0, topo)
 
@@ -279,7 +289,8 @@ def worker_breakdown(npz: str, repeat: int) -> dict:
     tl = _Timeline()
     saved = {k: getattr(angle_mod, k) for k in ("angle_target", "geometry", "laplacian_target", "first_valid",
                                                    "local_scale", "optimize", "_per_node", "run_blocks", "np")}
-    saved_choose = _fast.angle_choose
+    calls_mod = _entry_points()
+    saved_choose = calls_mod.angle_choose
     calls = {"per_node": 0}
 
     def per_node(*args):
@@ -321,7 +332,7 @@ def worker_breakdown(npz: str, repeat: int) -> dict:
     try:
         for k, v in patched.items():
             setattr(angle_mod, k, v)
-        _fast.angle_choose = tl.wrap(saved_choose, "choose (fused)")
+        calls_mod.angle_choose = tl.wrap(saved_choose, "choose (fused)")
         staged = []
         pts = pts0.copy()
         step(pts, topo, floors=floors)
@@ -337,7 +348,7 @@ def worker_breakdown(npz: str, repeat: int) -> dict:
     finally:
         for k, v in saved.items():
             setattr(angle_mod, k, v)
-        _fast.angle_choose = saved_choose
+        calls_mod.angle_choose = saved_choose
     stages = {k: statistics.median(p[k] for p in per_pass) for k in BREAKDOWN}
     lit, dflt = statistics.median(literal), statistics.median(default)
     return {"kernel": kernel, "literal_s": lit, "default_s": dflt, "ratio": dflt / lit, "staged_s":

@@ -295,8 +295,8 @@ def test_warm_up_compiles_what_a_smoothing_run_calls(tmp_path):
     code = (
         "import json\n"
         "from anglesmooth import generate as gen, smooth\n"
-        "from anglesmooth.smoothers import _fast\n"
-        "_fast.warm_up(['ring_mean', 'score'])\n"
+        "from anglesmooth.smoothers import _fast, _fastcalls\n"
+        "_fastcalls.warm_up(['ring_mean', 'score'])\n"
         "before = list(_fast.jit_stats()['compiled'])\n"
         "smooth(gen.random_delaunay(3000, 3), 'laplacian', passes=2)\n"
         "print(json.dumps([before, _fast.jit_stats()['compiled']]))\n"
@@ -312,9 +312,9 @@ def test_a_default_run_compiles_one_signature_per_kernel_the_one_warm_up_compile
     code = (
         "import json\n"
         "from anglesmooth import generate as gen, smooth\n"
-        "from anglesmooth.smoothers import _fast\n"
+        "from anglesmooth.smoothers import _fast, _fastcalls\n"
         "names = list(_fast.METHOD_KERNELS['angle'])\n"
-        "_fast.warm_up(names)\n"
+        "_fastcalls.warm_up(names)\n"
         "before = sorted(_fast.jit_stats()['compiled'])\n"
         "smooth(gen.random_delaunay(3000, 3), 'angle', passes=2)\n"
         "k = _fast._k()\n"

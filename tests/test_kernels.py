@@ -21,7 +21,7 @@ from anglesmooth import generate as gen
 from anglesmooth.cli import cli
 from anglesmooth.errors import ConfigurationError
 from anglesmooth.mesh import Mesh2D
-from anglesmooth.smoothers import SMOOTHERS, _fast
+from anglesmooth.smoothers import SMOOTHERS, _fast, _fastcalls
 from anglesmooth.smoothers._local import BlockGeometry, angle_target, laplacian_target, local_scale, optimize
 from anglesmooth.topology import build_topology, signed_areas
 
@@ -168,7 +168,7 @@ def test_kernels_agree_on_random_candidates_valid_invalid_and_degenerate(name, m
         nbr = topo.ring_nbr[blk.ring][np.searchsorted(topo.ring_loc[blk.ring], np.arange(blk.nodes.start, blk.nodes.stop))]
         X = np.concatenate([X, cur[None], pts[nbr][None]])
         ref = BlockGeometry(pts, topo, blk)
-        fast = _fast.FastGeometry(pts, topo, blk)
+        fast = _fastcalls.FastGeometry(pts, topo, blk)
         s_ref, s_fast = ref.score(X), fast.score(X)
         np.testing.assert_array_equal(s_fast, s_ref)
         checked_invalid += int((s_ref < -2.5).sum())
@@ -187,9 +187,9 @@ def test_kernels_agree_on_random_candidates_valid_invalid_and_degenerate(name, m
                 np.testing.assert_array_equal(a, b)
         plain, _ = optimize(ref, cur, scale, 4)
         strict_moved += int((optimize(ref, cur, scale, 4, strict=strict)[0] != plain).any(axis=1).sum())
-        np.testing.assert_array_equal(_fast.laplacian_target(pts, topo, blk), laplacian_target(pts, topo, blk))
-        np.testing.assert_array_equal(_fast.local_scale(pts, topo, blk, sub), local_scale(pts, topo, blk, sub))
-        np.testing.assert_allclose(_fast.angle_target(pts, topo, blk), angle_target(pts, topo, blk), rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(_fastcalls.laplacian_target(pts, topo, blk), laplacian_target(pts, topo, blk))
+        np.testing.assert_array_equal(_fastcalls.local_scale(pts, topo, blk, sub), local_scale(pts, topo, blk, sub))
+        np.testing.assert_allclose(_fastcalls.angle_target(pts, topo, blk), angle_target(pts, topo, blk), rtol=0, atol=1e-12)
     assert checked_invalid > 0 and checked_degenerate > 0  # the invalid branches were exercised
     assert (strict_moved > 0) == (name == "mixed")  # strict_quad changes the search only at nodes of both kinds
 

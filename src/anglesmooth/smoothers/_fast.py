@@ -11,8 +11,17 @@ Why a compiled kernel
     keep every intermediate in registers and need no gather, no temporaries
     and no per-chunk Python overhead.  Two of them do a whole per-node
     procedure at once: the candidate choice of the robust ``angle`` update
-    (:func:`angle_choose`) and the compass search of ``optimize``
-    (:meth:`FastGeometry.compass`).  Measured figures: ``benchmarks/README.md``.
+    (:func:`._fastcalls.angle_choose`) and the compass search of ``optimize``
+    (:meth:`._fastcalls.FastGeometry.compass`).  Measured figures: ``benchmarks/README.md``.
+
+Modules
+    This module decides whether the compiled kernels run (:func:`active`),
+    loads them (:mod:`._fastkernels`, through the disk cache of
+    :mod:`._jitcache`), counts their compile time and runs a call on
+    threads (:func:`_run`); :mod:`._fastcalls` holds the Python entry points
+    the smoothers call (one per numpy kernel of :mod:`._local`, plus
+    :func:`._fastcalls.warm_up`), which import this module, never the
+    other way round.
 
 Threads
     The kernels are compiled serially and release the GIL; :func:`_run`
@@ -68,20 +77,13 @@ from ..errors import ConfigurationError
 
 __all__ = [
     "AUTO_MIN_FREE",
-    "FastGeometry",
     "active",
-    "angle_choose",
-    "angle_target",
-    "area_limits",
     "cold_kernels",
     "compile_estimate",
     "jit_stats",
     "kernel_mode",
-    "laplacian_target",
-    "local_scale",
     "set_threads",
     "threads",
-    "warm_up",
     "would_help",
 ]
 
@@ -407,157 +409,3 @@ def compile_estimate(method: str | None = None) -> float:
     (0.0 when they are all cached or compiled already); from :data:`COMPILE_S`."""
     names = METHOD_KERNELS.get(method, tuple(COMPILE_S)) if method else tuple(COMPILE_S)
     return sum(COMPILE_S.get(n, _DEFAULT_COMPILE_S) for n in cold_kernels(names))
-
-
-def _csr(topo):
-    """Row pointers of the per-node tables (ring, spokes, triangles, quads) over all free nodes, cached."""
-    hit = topo._cache.get(("csr",))
-    if hit is None:
-        f = np.arange(topo.n_free + 1)
-        hit = topo._cache[("csr",)] = tuple(
-            np.searchsorted(loc, f).astype(np.int64) for loc in (topo.ring_loc, topo.spoke_loc, topo.tri_loc, topo.quad_loc)
-        )
-    return hit
-
-
-def _nodes(blk) -> np.ndarray:
-    return np.arange(blk.nodes.start, blk.nodes.stop, dtype=np.int64)
-
-
-def angle_target(points: np.ndarray, topo, blk) -> np.ndarray:
-    """Compiled :func:`._local.angle_target`."""
-    _, sp, _, _ = _csr(topo)
-    return _run(
-        _k().angle_target,
-        points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,
-    )
-
-
-def laplacian_target(points: np.ndarray, topo, blk) -> np.ndarray:
-    """Compiled :func:`._local.laplacian_target`."""
-    rp, _, _, _ = _csr(topo)
-    return _run(_k().ring_mean, points, _nodes(blk), topo.free_nodes, rp, topo.ring_nbr, False)
-
-
-def local_scale(points: np.ndarray, topo, blk, subset: np.ndarray | None = None) -> np.ndarray:
-    """Compiled :func:`._local.local_scale`."""
-    rp, _, _, _ = _csr(topo)
-    nodes = _nodes(blk)
-    if subset is not None:
-        nodes = nodes[subset]
-    return _run(_k().ring_mean, points, nodes, topo.free_nodes, rp, topo.ring_nbr, True)[:, 0]
-
-
-def area_limits(points: np.ndarray, topo):
-    """(smallest, largest) signed area of the mesh's cells at ``points`` (``float(areas.min())``,
-    ``float(areas.max())`` of ``topology.signed_areas``, the same numbers), or None without cells."""
-    if topo.tri.shape[0] + topo.quad.shape[0] == 0:
-        return None
-    lo, hi = _run(_k()._cell_area_range, np.ascontiguousarray(points, dtype=np.float64), topo.tri, topo.quad)
-    return float(lo), float(hi)
-
-
-def _floors(floors) -> np.ndarray:
-    """The input floors (``_floors.Floors`` or None) as the (6, rows) array the kernels take; (0, 0) for none."""
-    return np.zeros((0, 0)) if floors is None or not floors.active else floors.packed
-
-
-def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, nearest=False):
-    """Stages 1 and 2 of the robust ``angle`` update, fused per node (see :func:`.angle.step`).
-
-    ``good``: the acceptance score threshold, one per block node or one for all; ``keep``: None or
-    a bool per block node, where the angle position must also be no worse than staying; ``nearest``:
-    stage 2 takes the good-enough candidate nearest the angle position (see :func:`.angle.step`).
-    """
-    rp, sp, tp, qp = _csr(topo)
-    # always fresh writeable copies: a broadcast view is read-only, another compiled signature (a
-    # scalar ``good``, as in warm_up, copied, and a per-node one did not: two compiles)
-    if not (isinstance(good, np.ndarray) and good.dtype == np.float64 and good.shape == (blk.size,)
-            and good.flags.c_contiguous and good.flags.writeable):  # (the cached per-node thresholds are)
-        good = np.array(np.broadcast_to(np.asarray(good, dtype=np.float64), (blk.size,)))
-    return _run(
-        _k().angle_choose,
-        points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,
-        rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, good, _floors(floors),
-        np.zeros(0, np.bool_) if keep is None else np.array(keep, dtype=np.bool_), bool(nearest),
-    )
-
-
-class FastGeometry:
-    """Compiled stand-in for :class:`._local.BlockGeometry` (``n``, ``restrict``, ``score``) plus
-    the whole compass search of :func:`._local.optimize`; no gathered copies.
-
-    It keeps a reference to ``points`` (which must not change while it is
-    used: the block loop writes a block's moves only after its update) and
-    the free-node indices it scores.
-    """
-
-    def __init__(self, points: np.ndarray, topo, blk, nodes: np.ndarray | None = None, floors=None):
-        self._pts = points
-        self._topo = topo
-        self._nodes = _nodes(blk) if nodes is None else nodes
-        self.n = self._nodes.shape[0]
-        self._fl = floors if isinstance(floors, np.ndarray) else _floors(floors)
-
-    def restrict(self, subset: np.ndarray) -> FastGeometry:
-        return FastGeometry(self._pts, self._topo, None, self._nodes[subset], self._fl)
-
-    def score(self, X: np.ndarray) -> np.ndarray:
-        """Local score at candidate positions ``X`` (..., n, 2) -> (..., n)."""
-        t = self._topo
-        _, _, tp, qp = _csr(t)
-        X = np.asarray(X, dtype=np.float64)
-        Xf = np.ascontiguousarray(X.reshape((-1, self.n, 2)))
-        s = _run(_k().score, self._pts, Xf, self._nodes, tp, t.tri_verts, qp, t.quad_verts, self._fl)
-        return s.reshape(X.shape[:-2] + (self.n,))
-
-    def compass(self, x, scale, iterations: int, radius: float, area_band: float | None, directions: np.ndarray,
-                area_limits=None, strict=None):
-        """:func:`._local.optimize` from positions ``x`` (n, 2): (positions, scores)."""
-        t = self._topo
-        _, _, tp, qp = _csr(t)
-        band = -1.0 if area_band is None else float(area_band)
-        lo, hi = (-np.inf, np.inf) if area_limits is None else (float(area_limits[0]), float(area_limits[1]))
-        return _run(
-            _k().compass, self._pts, np.ascontiguousarray(x, dtype=np.float64), self._nodes, tp, t.tri_verts, qp,
-            t.quad_verts, np.ascontiguousarray(scale, dtype=np.float64), int(iterations), float(radius), band,
-            directions, self._fl, lo, hi,
-            np.zeros(0, np.bool_) if strict is None else np.ascontiguousarray(strict, dtype=np.bool_),
-        )
-
-
-def warm_up(kernels=None) -> None:
-    """Compile (or load from the cache) the ``kernels`` named (default: every kernel) on a tiny mesh.
-
-    The tiny mesh's tables have the types of any mesh's, so the compiled code is what a large mesh
-    runs (a different signature would only compile again).
-    """
-    want = set(COMPILE_S if kernels is None else kernels)
-    from ..generate import structured_quads, structured_triangles
-    from ..mesh import Mesh2D
-    from ..topology import build_topology
-
-    t, q = structured_triangles(4, 4), structured_quads(4, 4)
-    n = t.points.shape[0]
-    m = Mesh2D.from_arrays(
-        np.concatenate([t.points, q.points + [5.0, 0.0]]), triangles=t.triangles, quads=q.quads + n
-    )
-    topo = build_topology(m)
-    pts = np.array(m.points)  # writeable, as the points a smoothing run passes (another signature otherwise)
-    for blk in topo.blocks():
-        g = FastGeometry(pts, topo, blk)
-        x = pts[topo.free_nodes[blk.nodes]]
-        if "score" in want:
-            g.score(x)
-        if "compass" in want:
-            g.compass(x, np.ones(g.n), 1, 0.25, 0.8, np.eye(2)), g.compass(x, np.ones(g.n), 1, 0.25, None, np.eye(2))
-        if "angle_target" in want:
-            angle_target(pts, topo, blk)
-        if "ring_mean" in want:
-            laplacian_target(pts, topo, blk), local_scale(pts, topo, blk)
-        if "angle_choose" in want:
-            angle_choose(pts, topo, blk, 0.5)
-    if "_cell_area_range" in want:
-        area_limits(pts, topo)
-
-

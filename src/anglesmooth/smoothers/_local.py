@@ -30,7 +30,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..topology import Block, Topology
-from . import _fast
+from . import _fast, _fastcalls
 from ._blocks import intp
 from ._floors import Floors
 from ._rows import _C30, _CHUNK, _SMALL, _SMALL_SUBSET, _layout, _rowreduce, _Rows, strict_quad  # noqa: F401
@@ -284,7 +284,7 @@ class BlockGeometry:
 def geometry(points: np.ndarray, topo: Topology, blk: Block, floors: Floors | None = None):
     """The block's geometry: a :class:`BlockGeometry`, or its compiled twin on large meshes (see :mod:`._fast`)."""
     if _fast.active(topo):
-        return _fast.FastGeometry(points, topo, blk, floors=floors)
+        return _fastcalls.FastGeometry(points, topo, blk, floors=floors)
     return BlockGeometry(points, topo, blk, floors=floors)
 
 
@@ -295,7 +295,7 @@ def geometry(points: np.ndarray, topo: Topology, blk: Block, floors: Floors | No
 def laplacian_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
     """Centroid of the edge neighbours of each block node, (n, 2)."""
     if _fast.active(topo):
-        return _fast.laplacian_target(points, topo, blk)
+        return _fastcalls.laplacian_target(points, topo, blk)
     a = blk.nodes.start
     rel = intp(topo, "ring_loc")[blk.ring] - a
     nb = np.take(points, intp(topo, "ring_nbr")[blk.ring], axis=0)
@@ -318,7 +318,7 @@ def angle_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
     only unequal splits (quad beside triangle) use atan2/cos/sin.
     """
     if _fast.active(topo):
-        return _fast.angle_target(points, topo, blk)
+        return _fastcalls.angle_target(points, topo, blk)
     a0 = blk.nodes.start
     sl = blk.spokes
     n = blk.size
@@ -387,7 +387,7 @@ def _angle_sums(points: np.ndarray, topo: Topology, sl: slice, rel: np.ndarray, 
 def local_scale(points: np.ndarray, topo: Topology, blk: Block, subset: np.ndarray | None = None) -> np.ndarray:
     """Mean length of the edges at each block node, (n,), or at the block-local nodes ``subset`` only."""
     if _fast.active(topo):
-        return _fast.local_scale(points, topo, blk, subset)
+        return _fastcalls.local_scale(points, topo, blk, subset)
     a = blk.nodes.start
     loc = intp(topo, "ring_loc")[blk.ring]
     nbr = intp(topo, "ring_nbr")[blk.ring]
@@ -471,7 +471,7 @@ def optimize(
     :func:`strict_quad` where they also have triangles (see ``angle.step``'s ``strict_quads``).
     Returns (positions, scores).
     """
-    if isinstance(geom, _fast.FastGeometry):  # the same search, one compiled loop per node
+    if isinstance(geom, _fastcalls.FastGeometry):  # the same search, one compiled loop per node
         return geom.compass(x, scale, iterations, radius, area_band, _COMPASS, area_limits, strict)
     s0 = geom.score(x, strict=strict)
     if area_band is not None:

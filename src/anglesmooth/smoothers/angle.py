@@ -219,7 +219,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..topology import Topology, signed_areas
-from . import _fast
+from . import _fast, _fastcalls
 from ._blocks import StepResult, run_blocks
 from ._floors import Floors
 from ._local import INVALID, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
@@ -335,7 +335,7 @@ def step(
     limits = None
     if guard and hybrid and opt_iterations > 0 and area_band is not None and area_limits:
         if fast:  # the same two numbers, one compiled loop
-            limits = _fast.area_limits(points, topo)
+            limits = _fastcalls.area_limits(points, topo)
         else:
             areas = signed_areas(points, topo.tri, topo.quad)
             if areas.size:
@@ -349,7 +349,7 @@ def step(
             keep = floors.keep[blk.nodes]
             keep = keep if keep.any() else None
         if fast:  # the same choice, fused per node in a compiled loop
-            new, best, refused = _fast.angle_choose(pts, topo, blk, good, floors, keep, nearest)
+            new, best, refused = _fastcalls.angle_choose(pts, topo, blk, good, floors, keep, nearest)
             return new, best, int(refused.sum())
         target = angle_target(pts, topo, blk)
         s_a = geom.score(target)
