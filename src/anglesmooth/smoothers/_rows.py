@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from ..topology import Block, Topology
+from ._blocks import INTP_MAX
 
 _CHUNK = 16384  # rows per kernel call: the temporaries of one call stay in the L2 cache
 _SMALL = 4096  # up to this many rows, one ragged chunk (see _Rows)
@@ -115,10 +116,14 @@ def _layout(topo: Topology, blk: Block, subset: np.ndarray | None):
         q_rel, q_v, q_ids = remap[q_rel[keep]], q_v[keep], q_ids[keep]
         n = subset.shape[0]
     t_rows, q_rows = _Rows(t_rel, n), _Rows(q_rel, n)
-    # intp: numpy gathers with int32 indices (the topology's tables) convert them every time
-    t_cols = tuple(np.ascontiguousarray(t_v[t_rows.perm, k], dtype=np.intp) for k in (1, 2))
-    q_cols = tuple(np.ascontiguousarray(q_v[q_rows.perm, k], dtype=np.intp) for k in (1, 2, 3))
-    t_rel, q_rel = t_rel[t_rows.perm].astype(np.intp), q_rel[q_rows.perm].astype(np.intp)
+    # intp: numpy gathers with int32 indices (the topology's tables) convert them every time; not for
+    # large blocks, where the copies would cost memory (see _blocks.INTP_MAX; the same indices either way)
+    ix = np.intp if 3 * (t_v.shape[0] + q_v.shape[0]) <= INTP_MAX else None
+    t_cols = tuple(np.ascontiguousarray(t_v[t_rows.perm, k], dtype=ix) for k in (1, 2))
+    q_cols = tuple(np.ascontiguousarray(q_v[q_rows.perm, k], dtype=ix) for k in (1, 2, 3))
+    t_rel, q_rel = t_rel[t_rows.perm], q_rel[q_rows.perm]
+    if ix is not None:
+        t_rel, q_rel = t_rel.astype(np.intp), q_rel.astype(np.intp)
     t_ids, q_ids = t_ids[t_rows.perm], q_ids[q_rows.perm]  # incidence row of each layout row
     t_rows.perm = q_rows.perm = None  # applied; not needed again
     return n, t_rows, t_rel, t_cols, q_rows, q_rel, q_cols, t_ids, q_ids
