@@ -106,12 +106,12 @@ CHUNKS_PER_THREAD = 4
 #: that calls it (``angle_choose`` in a default run: 2.1 s with it, ``compass`` then 0.7 s); each
 #: figure here counts it, so an estimate over several kernels is on the safe side.
 #: ``_cell_area_range`` (:func:`area_limits`) is a mesh-wide loop, not split per node (hence private).
-COMPILE_S = {"angle_choose": 2.2, "compass": 1.5, "score": 0.7, "ring_mean": 0.3, "angle_target": 0.6,
-             "_cell_area_range": 0.2}
+COMPILE_S = {"angle_choose": 2.2, "angle_optimize": 1.5, "compass": 1.5, "score": 0.7, "ring_mean": 0.3,
+             "angle_target": 0.6, "_cell_area_range": 0.2}
 _DEFAULT_COMPILE_S = 2.0
 #: The kernels a method's default run calls (for :func:`compile_estimate`; a hint, not a contract).
 METHOD_KERNELS = {
-    "angle": ("angle_choose", "ring_mean", "compass", "score", "_cell_area_range"),
+    "angle": ("angle_choose", "angle_optimize", "_cell_area_range"),
     "laplacian": ("ring_mean", "score"),
     "smart-laplacian": ("ring_mean", "score"),
     "optimization": ("ring_mean", "compass"),
@@ -124,7 +124,8 @@ METHOD_KERNELS = {
 # every kernel's parameters are known)
 PER_NODE = {"nodes": 0, "x": 0, "X": 1, "scale": 0}
 SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "rp", "nbr", "tp", "tv", "qp", "qv", "directions", "fl"}
-SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest", "alo", "ahi", "strict"}  # or one value per node, or empty
+SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest", "alo", "ahi", "strict", "best",
+           "resume_iterations", "resume_radius", "resume_above"}  # or one value per node, or empty
 
 _ENV = "ANGLESMOOTH_KERNEL"
 _kernels = None  # the compiled module, imported on first use

@@ -16,6 +16,7 @@ from ._fast import COMPILE_S, _k, _run
 __all__ = [
     "FastGeometry",
     "angle_choose",
+    "angle_optimize",
     "angle_target",
     "area_limits",
     "laplacian_target",
@@ -98,6 +99,25 @@ def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, ne
     )
 
 
+def angle_optimize(points: np.ndarray, topo, blk, worst, x, best, iterations: int, radius: float,
+                   area_band: float | None, directions: np.ndarray, area_limits=None, strict=None, floors=None,
+                   resume_iterations: int = 0, resume_radius: float = 0.0, resume_above: float = np.inf):
+    """Stage 4 of the robust ``angle`` update for the block-local nodes ``worst`` (see :func:`.angle.step`),
+    one compiled loop: their local scale, the resume test of quad-only nodes and the compass search
+    (``resume_above``: the score, not the angle).  Returns (positions, scores): the numbers of
+    :func:`local_scale`, :meth:`FastGeometry.score` and two :meth:`FastGeometry.compass` calls."""
+    rp, _, tp, qp = _csr(topo)
+    band = -1.0 if area_band is None else float(area_band)
+    lo, hi = (-np.inf, np.inf) if area_limits is None else (float(area_limits[0]), float(area_limits[1]))
+    return _run(
+        _k().angle_optimize, points, np.ascontiguousarray(x, dtype=np.float64), _nodes(blk)[worst], topo.free_nodes,
+        rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, np.ascontiguousarray(best, dtype=np.float64),
+        int(iterations), float(radius), band, directions, _floors(floors), lo, hi,
+        np.zeros(0, np.bool_) if strict is None else np.ascontiguousarray(strict, dtype=np.bool_),
+        int(resume_iterations), float(resume_radius), float(resume_above),
+    )
+
+
 class FastGeometry:
     """Compiled stand-in for :class:`._local.BlockGeometry` (``n``, ``restrict``, ``score``) plus
     the whole compass search of :func:`._local.optimize`; no gathered copies.
@@ -172,6 +192,10 @@ def warm_up(kernels=None) -> None:
             laplacian_target(pts, topo, blk), local_scale(pts, topo, blk)
         if "angle_choose" in want:
             angle_choose(pts, topo, blk, 0.5)
+        if "angle_optimize" in want:
+            w = np.arange(g.n)
+            angle_optimize(pts, topo, blk, w, x, np.zeros(g.n), 1, 0.25, 0.8, np.eye(2), None, np.ones(g.n, bool),
+                           None, 1, 0.0625, 0.5)
     if "_cell_area_range" in want:
         area_limits(pts, topo)
 

@@ -162,11 +162,10 @@ def _node_rows(pts, f, tp, tv, qp, qv, buf):
         buf[k, 11] = 1.0 if ok2 else 0.0
         k += 1
     buf[buf.shape[0] - 1, 0] = 0.0  # the cell to start the next score with (see _node_score_rows)
-    buf[buf.shape[0] - 1, 1] = 0.0  # quad corners score -|cos| (1: ``strict_quad``; see compass)
 
 
 @_helper
-def _node_score_rows(px, py, f, tp, qp, buf, fl, cut, lo0, hi0):
+def _node_score_rows(px, py, f, tp, qp, buf, fl, cut, lo0, hi0, strict):
     """:func:`_node_score` from the rows :func:`_node_rows` put in ``buf`` for node ``f`` (same numbers).
 
     ``cut``: the caller needs the score only where it is above ``cut``; where it is not, ``-inf`` may
@@ -184,8 +183,8 @@ def _node_score_rows(px, py, f, tp, qp, buf, fl, cut, lo0, hi0):
     area (``_tri_area`` / ``_quad_area``, from the same products as the score) is outside
     [lo0, hi0], as :meth:`BlockGeometry.banded_score` gives, found in the same pass over the cells.
 
-    Where ``buf``'s last row has a 1 in column 1 (``compass`` sets it for its ``strict`` nodes that
-    also have triangles), the quad corners score ``_local.strict_quad`` (the same operations).
+    ``strict``: the quad corners score ``_local.strict_quad`` (the same operations; ``compass`` asks
+    for it at its ``strict`` nodes that also have triangles).
     """
     best = np.inf
     bad = 0.0
@@ -196,7 +195,6 @@ def _node_score_rows(px, py, f, tp, qp, buf, fl, cut, lo0, hi0):
     q0 = qp[f]
     m = nt + qp[f + 1] - q0
     hint = buf.shape[0] - 1
-    strict = buf[hint, 1] > 0
     k = int(buf[hint, 0])
     if k >= m:
         k = 0
@@ -317,7 +315,7 @@ def score(pts, X, nodes, tp, tv, qp, qv, fl):
         f = nodes[i]
         _node_rows(pts, f, tp, tv, qp, qv, buf)
         for k in range(K):
-            out[k, i] = _node_score_rows(X[k, i, 0], X[k, i, 1], f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf)
+            out[k, i] = _node_score_rows(X[k, i, 0], X[k, i, 1], f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, False)
     return out
 
 
@@ -437,7 +435,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
         kp = keep.shape[0] > 0 and keep[i]
         if kp:  # staying is scored too: gather the cells once, score A from them (the same number)
             _node_rows(pts, f, tp, tv, qp, qv, buf)
-            s_a = _node_score_rows(ax, ay, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf)
+            s_a = _node_score_rows(ax, ay, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, False)
         else:
             s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv, fl)
         refused[i] = s_a <= INVALID + 0.5
@@ -446,7 +444,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
         if not take and not kp:  # more candidates to score: gather the cells once
             _node_rows(pts, f, tp, tv, qp, qv, buf)
         if take and kp:
-            take = s_a >= _node_score_rows(cx, cy, f, tp, qp, buf, fl, s_a, -np.inf, np.inf)
+            take = s_a >= _node_score_rows(cx, cy, f, tp, qp, buf, fl, s_a, -np.inf, np.inf, False)
         if take:
             new[i, 0], new[i, 1], best[i] = ax, ay, s_a
             continue
@@ -468,7 +466,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
                 px, py = cx, cy
             # exact where it beats bs or, with near_ok, where it is good enough (a cut below good[i])
             cut = min(bs, good[i] - 1e-9) if near_ok else bs
-            sk = _node_score_rows(px, py, f, tp, qp, buf, fl, cut, -np.inf, np.inf)
+            sk = _node_score_rows(px, py, f, tp, qp, buf, fl, cut, -np.inf, np.inf, False)
             if k < 3:
                 stuck = stuck & (sk <= INVALID + 0.5)
             elif stuck:
@@ -487,13 +485,42 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
             fr = 1.0
             for _ in range(7):
                 px, py = cx + fr * dx, cy + fr * dy
-                sk = _node_score_rows(px, py, f, tp, qp, buf, fl, INVALID + 0.5, -np.inf, np.inf)  # exact where valid
+                sk = _node_score_rows(px, py, f, tp, qp, buf, fl, INVALID + 0.5, -np.inf, np.inf, False)  # exact where valid
                 if sk > INVALID + 0.5:
                     bx, by, bs = px, py, sk
                     break
                 fr *= 0.5
         new[i, 0], new[i, 1], best[i] = bx, by, bs
     return new, best, refused
+
+
+@njit(inline="always")
+def _node_compass(px, py, f, tp, qp, buf, fl, r, iterations, band, directions, alo, ahi, strict):
+    """``optimize``'s compass search for one node from (px, py), its cells in ``buf`` (:func:`_node_rows`),
+    starting radius ``r``: (x, y, score)."""
+    s0 = _node_score_rows(px, py, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, strict)
+    lo0, hi0 = -np.inf, np.inf  # no band
+    if band >= 0:
+        lr, hr = _node_area_range_rows(px, py, f, tp, qp, buf)
+        lo0 = max(band * lr, min(alo, lr))
+        hi0 = min(hr / band, max(ahi, hr))
+    for _ in range(iterations):
+        bx = by = 0.0
+        bs = -np.inf
+        for c in range(directions.shape[0]):
+            qx, qy = px + directions[c, 0] * r, py + directions[c, 1] * r
+            # only a candidate above max(bs, s0) can change the outcome (the first best, moved to
+            # only if it beats s0), so the others may be cut off early; a cell outside the area
+            # band gives -inf at once (the outcome depends only on the candidates above s0, and
+            # those are exact and within the band either way)
+            sc = _node_score_rows(qx, qy, f, tp, qp, buf, fl, max(bs, s0), lo0, hi0, strict)
+            if c == 0 or sc > bs:  # np.argmax: the first best
+                bx, by, bs = qx, qy, sc
+        if bs > s0:
+            px, py, s0 = bx, by, bs
+        else:
+            r = 0.5 * r
+    return px, py, s0
 
 
 @_kernel
@@ -507,32 +534,37 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
     buf = np.empty((_max_rows(nodes, tp, qp) + 1, _ROW_COLS))
     for i in prange(n):
         f = nodes[i]
-        px, py = x[i, 0], x[i, 1]
         _node_rows(pts, f, tp, tv, qp, qv, buf)
-        if strict.shape[0] > 0 and strict[i] and tp[f + 1] > tp[f]:
-            buf[buf.shape[0] - 1, 1] = 1.0
-        s0 = _node_score_rows(px, py, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf)
-        lo0, hi0 = -np.inf, np.inf  # no band
-        if band >= 0:
-            lr, hr = _node_area_range_rows(px, py, f, tp, qp, buf)
-            lo0 = max(band * lr, min(alo, lr))
-            hi0 = min(hr / band, max(ahi, hr))
-        r = radius * scale[i]
-        for _ in range(iterations):
-            bx = by = 0.0
-            bs = -np.inf
-            for c in range(directions.shape[0]):
-                qx, qy = px + directions[c, 0] * r, py + directions[c, 1] * r
-                # only a candidate above max(bs, s0) can change the outcome (the first best, moved to
-                # only if it beats s0), so the others may be cut off early; a cell outside the area
-                # band gives -inf at once (the outcome depends only on the candidates above s0, and
-                # those are exact and within the band either way)
-                sc = _node_score_rows(qx, qy, f, tp, qp, buf, fl, max(bs, s0), lo0, hi0)
-                if c == 0 or sc > bs:  # np.argmax: the first best
-                    bx, by, bs = qx, qy, sc
-            if bs > s0:
-                px, py, s0 = bx, by, bs
-            else:
-                r = 0.5 * r
-        out[i, 0], out[i, 1], s_out[i] = px, py, s0
+        st = strict.shape[0] > 0 and strict[i] and tp[f + 1] > tp[f]
+        out[i, 0], out[i, 1], s_out[i] = _node_compass(x[i, 0], x[i, 1], f, tp, qp, buf, fl, radius * scale[i],
+                                                       iterations, band, directions, alo, ahi, st)
+    return out, s_out
+
+
+@_kernel
+def angle_optimize(pts, x, nodes, free, rp, nbr, tp, tv, qp, qv, best, iterations, radius, band, directions, fl,
+                   alo, ahi, strict, resume_iterations, resume_radius, resume_above):
+    """Stage 4 of the robust ``angle`` update (``angle.step``) for its worst nodes, fused per node: the
+    local scale (``local_scale``), the resume test of a quad-only node (staying scores above ``best``,
+    its stage 1-2 score, and at least ``resume_above``: ``resume_iterations`` steps from there from
+    ``resume_radius``; ``resume_iterations`` 0: never) and else the compass search from ``x`` (the
+    stage 1-2 choice), ``iterations`` steps from ``radius``, ``strict`` as in :func:`compass`.
+    The same numbers as ``local_scale``, ``score`` and two ``compass`` calls."""
+    n = nodes.shape[0]
+    out = np.empty((n, 2))
+    s_out = np.empty(n)
+    buf = np.empty((_max_rows(nodes, tp, qp) + 1, _ROW_COLS))
+    for i in prange(n):
+        f = nodes[i]
+        _node_rows(pts, f, tp, tv, qp, qv, buf)
+        scale, _ = _node_ring_mean(pts, f, free, rp, nbr, True)
+        px, py, its, r = x[i, 0], x[i, 1], iterations, radius * scale
+        st = strict.shape[0] > 0 and strict[i] and tp[f + 1] > tp[f]
+        if resume_iterations > 0 and tp[f + 1] == tp[f]:  # quads only
+            cx, cy = pts[free[f], 0], pts[free[f], 1]
+            s_c = _node_score_rows(cx, cy, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, False)
+            if (s_c > best[i]) & (s_c >= resume_above):
+                px, py, its, r = cx, cy, resume_iterations, resume_radius * scale
+        out[i, 0], out[i, 1], s_out[i] = _node_compass(px, py, f, tp, qp, buf, fl, r, its, band, directions,
+                                                       alo, ahi, st)
     return out, s_out

@@ -135,7 +135,7 @@ class BlockGeometry:
         score :func:`strict_quad` (on the triangles' scale) instead of ``-|cos|``.
         """
         # per quad row: its node is strict and has triangles too
-        q_strict = None if strict is None else ((np.bincount(self.t_rel, minlength=self.n) > 0) & strict)[self.q_rel]
+        q_strict = None if strict is None else (self._has_tris() & strict)[self.q_rel]
         X = np.asarray(X, dtype=np.float64)
         lead = X.shape[:-2]
         Xf = X.reshape((-1, self.n, 2))
@@ -178,6 +178,13 @@ class BlockGeometry:
         if band is not None:
             out = np.where((lo >= band[0]) & (hi <= band[1]), out, -np.inf)
         return out.reshape(lead + (self.n,))
+
+    def _has_tris(self) -> np.ndarray:
+        """Per node: it has a triangle row (topology only: computed once per geometry)."""
+        hit = self.__dict__.get("_has_tri")
+        if hit is None:
+            hit = self._has_tri = np.bincount(self.t_rel, minlength=self.n) > 0
+        return hit
 
     def banded_score(self, X: np.ndarray, lo0: np.ndarray, hi0: np.ndarray, strict=None) -> np.ndarray:
         """The score at ``X`` where every incident area stays within [lo0, hi0] (per node), -inf elsewhere.
@@ -469,11 +476,13 @@ def optimize(
     area)`` (the default ``angle`` passes the mesh's area range at the start
     of the pass).  ``strict`` (per node, bool): those nodes score their quad corners with
     :func:`strict_quad` where they also have triangles (see ``angle.step``'s ``strict_quads``).
+    ``iterations`` and ``radius`` may also be one value per node (numpy kernels only).
     Returns (positions, scores).
     """
     if isinstance(geom, _fastcalls.FastGeometry):  # the same search, one compiled loop per node
         return geom.compass(x, scale, iterations, radius, area_band, _COMPASS, area_limits, strict)
     s0 = geom.score(x, strict=strict)
+    lo0 = hi0 = None
     if area_band is not None:
         lr, hr = geom.area_range(x)
         lo0, hi0 = area_band * lr, hr / area_band
@@ -481,17 +490,43 @@ def optimize(
             lo0 = np.maximum(lo0, np.minimum(area_limits[0], lr))
             hi0 = np.minimum(hi0, np.maximum(area_limits[1], hr))
     r = radius * scale
-    idx = np.arange(x.shape[0])
-    for _ in range(iterations):
-        cands = x[None] + _COMPASS[:, None, :] * r[None, :, None]
-        sc = geom.score(cands, strict=strict) if area_band is None else geom.banded_score(cands, lo0, hi0, strict)
-        k = np.argmax(sc, axis=0)
-        sk = sc[k, idx]
-        better = sk > s0
-        x = np.where(better[:, None], cands[k, idx], x)
-        s0 = np.where(better, sk, s0)
-        r = np.where(better, r, 0.5 * r)
+    if np.ndim(iterations) == 0:
+        for _ in range(iterations):
+            x, s0, r = _compass_step(geom, x, s0, r, area_band, lo0, hi0, strict)
+        return x, s0
+    # one number of steps per node: all nodes while every one still steps, then only the ones that do
+    # (the geometry restricted once per change of that set; every node's numbers are its own)
+    its = np.asarray(iterations)
+    x, s0, r = np.array(x, dtype=np.float64), np.array(s0), np.array(r, dtype=np.float64)  # written in place below
+    act, g = None, geom
+    for k in range(int(its.max(initial=0))):
+        on = its if act is None else its[act]
+        if not (on > k).all():
+            sub = np.flatnonzero(on > k)
+            act = sub if act is None else act[sub]
+            g = g.restrict(sub)
+            if area_band is not None:
+                lo0, hi0 = lo0[sub], hi0[sub]
+            strict = None if strict is None else strict[sub]
+        if act is None:
+            x, s0, r = _compass_step(g, x, s0, r, area_band, lo0, hi0, strict)
+        else:
+            x[act], s0[act], r[act] = _compass_step(g, x[act], s0[act], r[act], area_band, lo0, hi0, strict)
     return x, s0
+
+
+def _compass_step(geom, x, s0, r, area_band, lo0, hi0, strict):
+    """One step of :func:`optimize`'s compass search: (positions, scores, radii)."""
+    cands = x[None] + _COMPASS[:, None, :] * r[None, :, None]
+    sc = geom.score(cands, strict=strict) if area_band is None else geom.banded_score(cands, lo0, hi0, strict)
+    k = np.argmax(sc, axis=0)
+    idx = np.arange(x.shape[0])
+    sk = sc[k, idx]
+    better = sk > s0
+    x = np.where(better[:, None], cands[k, idx], x)
+    s0 = np.where(better, sk, s0)
+    r = np.where(better, r, 0.5 * r)
+    return x, s0, r
 
 
 _COMPASS = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)], axis=1)

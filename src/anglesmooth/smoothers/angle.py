@@ -222,7 +222,7 @@ from ..topology import Topology, signed_areas
 from . import _fast, _fastcalls
 from ._blocks import StepResult, run_blocks
 from ._floors import Floors
-from ._local import INVALID, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
+from ._local import _COMPASS, INVALID, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
 
 __all__ = ["step"]
 
@@ -341,6 +341,8 @@ def step(
             if areas.size:
                 limits = (float(areas.min()), float(areas.max()))
 
+    any_keep = floors is not None and bool(floors.keep.any())  # once per pass, not per colour class
+
     def choose(pts, blk, cur, geom):
         """Stages 1 and 2: (positions, their local scores, number of invalid angle positions)."""
         good = _per_node(topo, blk, accept_above, accept_above_quad)
@@ -409,31 +411,31 @@ def step(
             below = _per_node(topo, blk, opt_below, opt_below_quad)
             worst = np.sort(worst[best[worst] < below[worst]])
         if n_opt and worst.size:
+            strict = None
+            if strict_quads and any_keep:
+                strict = floors.keep[blk.nodes][worst]
+            if fast:  # the same search, one compiled loop (scale, resume test, compass) per node
+                new[worst], _ = _fastcalls.angle_optimize(
+                    pts, topo, blk, worst, new[worst], best[worst], opt_iterations, 0.25, area_band, _COMPASS, limits,
+                    strict, floors, resume_iterations, resume_radius, -np.cos(np.radians(resume_above)))
+                return new, refused
             sub = geom.restrict(worst)
             scale = local_scale(pts, topo, blk, subset=worst)
-            strict = None
-            if strict_quads and floors is not None and floors.keep.any():
-                strict = floors.keep[blk.nodes][worst]
-            fresh = np.arange(worst.size)
+            start, its, rad = new[worst], opt_iterations, 0.25
             if resume_iterations > 0:
                 # a quad node that scores higher staying (optimized in the previous pass, pulled back by
                 # stages 1-2) and is already good there resumes the search from there, finer and longer
-                # (scored at the quad-only nodes alone: the others never resume)
+                # (scored at the quad-only nodes alone: the others never resume); one search for all
+                # (per-node steps and radii: the numbers of two separate searches)
                 q = np.flatnonzero(_quads_only(topo, blk)[worst])
                 if q.size:
                     s_c = (sub if q.size == worst.size else sub.restrict(q)).score(cur[worst[q]])
                     b = q[(s_c > best[worst[q]]) & (s_c >= -np.cos(np.radians(resume_above)))]
                     if b.size:
-                        back = np.zeros(worst.size, dtype=bool)
-                        back[b] = True
-                        fresh = np.flatnonzero(~back)
-                        new[worst[b]], _ = optimize(sub.restrict(b), cur[worst[b]], scale[b], resume_iterations,
-                                                    resume_radius, area_band, limits)
-            if fresh.size:
-                w = worst[fresh]
-                gf = sub if fresh.size == worst.size else sub.restrict(fresh)
-                new[w], _ = optimize(gf, new[w], scale[fresh], opt_iterations, area_band=area_band, area_limits=limits,
-                                     strict=None if strict is None else strict[fresh])
+                        start[b] = cur[worst[b]]
+                        its, rad = np.full(worst.size, opt_iterations), np.full(worst.size, 0.25)
+                        its[b], rad[b] = resume_iterations, resume_radius
+            new[worst], _ = optimize(sub, start, scale, its, rad, area_band, limits, strict)
         return new, refused
 
     return run_blocks(points, topo, order, update)
