@@ -124,7 +124,7 @@ METHOD_KERNELS = {
 # every kernel's parameters are known)
 PER_NODE = {"nodes": 0, "x": 0, "X": 1, "scale": 0}
 SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "rp", "nbr", "tp", "tv", "qp", "qv", "directions", "fl"}
-SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest", "alo", "ahi", "strict", "best",
+SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest", "alo", "ahi", "strict", "best", "certify",
            "resume_iterations", "resume_radius", "resume_above"}  # or one value per node, or empty
 
 _ENV = "ANGLESMOOTH_KERNEL"

@@ -78,12 +78,14 @@ def _floors(floors) -> np.ndarray:
     return np.zeros((0, 0)) if floors is None or not floors.active else floors.packed
 
 
-def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, nearest=False):
+def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, nearest=False, certify=None):
     """Stages 1 and 2 of the robust ``angle`` update, fused per node (see :func:`.angle.step`).
 
     ``good``: the acceptance score threshold, one per block node or one for all; ``keep``: None or
     a bool per block node, where the angle position must also be no worse than staying; ``nearest``:
-    stage 2 takes the good-enough candidate nearest the angle position (see :func:`.angle.step`).
+    stage 2 takes the good-enough candidate nearest the angle position (see :func:`.angle.step`);
+    ``certify``: None or a score per block node (see ``_fastkernels.angle_choose``).  Returns (positions,
+    scores, refused, lazy): ``lazy`` marks the nodes whose score is ``inf`` instead of the exact one.
     """
     rp, sp, tp, qp = _csr(topo)
     # always fresh writeable copies: a broadcast view is read-only, another compiled signature (a
@@ -96,6 +98,7 @@ def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, ne
         points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,
         rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, good, _floors(floors),
         np.zeros(0, np.bool_) if keep is None else np.array(keep, dtype=np.bool_), bool(nearest),
+        np.zeros(0) if certify is None else np.ascontiguousarray(certify, dtype=np.float64),
     )
 
 
@@ -191,7 +194,7 @@ def warm_up(kernels=None) -> None:
         if "ring_mean" in want:
             laplacian_target(pts, topo, blk), local_scale(pts, topo, blk)
         if "angle_choose" in want:
-            angle_choose(pts, topo, blk, 0.5)
+            angle_choose(pts, topo, blk, 0.5), angle_choose(pts, topo, blk, 0.5, certify=np.full(g.n, -0.5))
         if "angle_optimize" in want:
             w = np.arange(g.n)
             angle_optimize(pts, topo, blk, w, x, np.zeros(g.n), 1, 0.25, 0.8, np.eye(2), None, np.ones(g.n, bool),

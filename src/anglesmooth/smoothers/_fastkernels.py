@@ -415,24 +415,80 @@ def ring_mean(pts, nodes, free, rp, nbr, lengths):
     return out
 
 
+@njit(inline="always")
+def _corner_ok(d, q, cc):
+    """A corner whose |cosine| is ``|d| / sqrt(q)`` (``d``: the dot product, ``q``: the product of the two
+    squared lengths) certainly has a cosine below ``c`` (``cc = c * c * (1 - 1e-9)``; ``signed``: only
+    ``d`` > 0 counts) however its cosine is rounded: no square root, no division."""
+    return (q > 1e-300) & (q < np.inf) & (d * d <= cc * q)
+
+
+@njit(inline="always")
+def _node_certified(pts, px, py, f, tp, tv, qp, qv, c):
+    """True when ``_node_score`` at (px, py) is certainly valid and above ``-c`` (``c`` > 0; no floors):
+    every incident cell passes ``_node_score``'s validity tests (the same expressions, so the same
+    answers) and every corner's ``-cos`` (triangles) or ``-|cos|`` (quads) is above ``-c`` by a relative
+    margin of about 5e-10, far beyond the rounding of the score's square roots and divisions.  False
+    says nothing (the caller then scores the node exactly)."""
+    cc = c * c * (1.0 - 1e-9)
+    for r in range(tp[f], tp[f + 1]):
+        i1, i2 = tv[r, 1], tv[r, 2]
+        x1, y1, x2, y2 = pts[i1, 0], pts[i1, 1], pts[i2, 0], pts[i2, 1]
+        ux, uy = x2 - x1, y2 - y1
+        ex1, ey1 = x1 - px, y1 - py
+        fx2, fy2 = px - x2, py - y2
+        if not (ex1 * fy2 - ey1 * fx2 < 0):
+            return False
+        s1, s2, s12 = ex1 * ex1 + ey1 * ey1, fx2 * fx2 + fy2 * fy2, ux * ux + uy * uy
+        # the cosines are -(e1.f2), -(u.e1), -(f2.u) over the lengths: a negative one is below c already
+        d0, d1, d2 = -(ex1 * fx2 + ey1 * fy2), -(ux * ex1 + uy * ey1), -(fx2 * ux + fy2 * uy)
+        if not (_corner_ok(max(d0, 0.0), s1 * s2, cc) & _corner_ok(max(d1, 0.0), s12 * s1, cc)
+                & _corner_ok(max(d2, 0.0), s2 * s12, cc)):
+            return False
+    for r in range(qp[f], qp[f + 1]):
+        i1, i2, i3 = qv[r, 1], qv[r, 2], qv[r, 3]
+        x1, y1, x2, y2, x3, y3 = pts[i1, 0], pts[i1, 1], pts[i2, 0], pts[i2, 1], pts[i3, 0], pts[i3, 1]
+        ux, uy = x2 - x1, y2 - y1
+        vx, vy = x3 - x2, y3 - y2
+        ex1, ey1 = x1 - px, y1 - py
+        ex3, ey3 = x3 - px, y3 - py
+        if not ((vx * -uy - vy * -ux > 0) & (ex1 * ey3 - ey1 * ex3 > 0) & (uy * ex1 - ux * ey1 > 0)
+                & (ex3 * vy - ey3 * vx > 0)):
+            return False
+        s1, s3, s12, s23 = ex1 * ex1 + ey1 * ey1, ex3 * ex3 + ey3 * ey3, ux * ux + uy * uy, vx * vx + vy * vy
+        if not (_corner_ok(ex1 * ex3 + ey1 * ey3, s1 * s3, cc) & _corner_ok(ux * ex1 + uy * ey1, s12 * s1, cc)
+                & _corner_ok(ex3 * vx + ey3 * vy, s3 * s23, cc) & _corner_ok(vx * ux + vy * uy, s23 * s12, cc)):
+            return False
+    return True
+
+
 @_kernel
-def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good, fl, keep, nearest):
+def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good, fl, keep, nearest, certify):
     """Stages 1 and 2 of the robust ``angle`` update (``angle.step``), fused per node.
 
     ``good`` is the per-node acceptance threshold; where ``keep`` (empty: nowhere) the angle position
     must also be no worse than staying.  ``nearest``: stage 2 takes the candidate nearest the angle
     position among those scoring at least ``good`` (not where ``keep``), else the best.  Returns the
-    chosen positions, their scores and whether the angle position was invalid.
+    chosen positions, their scores, whether the angle position was invalid and ``lazy``: where
+    ``certify`` (per node, a score above ``good``; empty: nowhere; only without floors) says that a score
+    at least that high leaves the node out of stage 4 anyway, a node not in ``keep`` whose angle position
+    :func:`_node_certified` scores above it takes it without the exact score (``inf`` instead; the caller
+    scores it only when the choice of the worst nodes could depend on it).
     """
     n = nodes.shape[0]
     new = np.empty((n, 2))
     best = np.empty(n)
     refused = np.zeros(n, np.bool_)
+    lazy = np.zeros(n, np.bool_)
     buf = np.empty((_max_rows(nodes, tp, qp) + 1, _ROW_COLS))  # the node's fixed cell data (speed only)
     for i in prange(n):
         f = nodes[i]
         ax, ay = _node_angle(pts, f, free, sp, ring, sa, sb, frac)
         kp = keep.shape[0] > 0 and keep[i]
+        if (not kp and certify.shape[0] > 0 and fl.shape[0] == 0 and certify[i] < 0 and certify[i] > good[i]
+                and _node_certified(pts, ax, ay, f, tp, tv, qp, qv, -certify[i])):
+            new[i, 0], new[i, 1], best[i], lazy[i] = ax, ay, np.inf, True
+            continue
         if kp:  # staying is scored too: gather the cells once, score A from them (the same number)
             _node_rows(pts, f, tp, tv, qp, qv, buf)
             s_a = _node_score_rows(ax, ay, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, False)
@@ -491,7 +547,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
                     break
                 fr *= 0.5
         new[i, 0], new[i, 1], best[i] = bx, by, bs
-    return new, best, refused
+    return new, best, refused, lazy
 
 
 @njit(inline="always")

@@ -344,15 +344,22 @@ def step(
     any_keep = floors is not None and bool(floors.keep.any())  # once per pass, not per colour class
 
     def choose(pts, blk, cur, geom):
-        """Stages 1 and 2: (positions, their local scores, number of invalid angle positions)."""
+        """Stages 1 and 2: (positions, their local scores, number of invalid angle positions, None or the
+        nodes whose score is ``inf`` instead: certainly not below the optimization threshold)."""
         good = _per_node(topo, blk, accept_above, accept_above_quad)
         keep = None
         if floors is not None:
             keep = floors.keep[blk.nodes]
             keep = keep if keep.any() else None
         if fast:  # the same choice, fused per node in a compiled loop
-            new, best, refused = _fastcalls.angle_choose(pts, topo, blk, good, floors, keep, nearest)
-            return new, best, int(refused.sum())
+            # nodes certainly above every optimization threshold of the block need no exact score (the
+            # highest: a mixed block orders its triangle and quad nodes together)
+            certify = None
+            if opt_iterations > 0 and not (floors is not None and floors.active):
+                below = _per_node(topo, blk, opt_below, opt_below_quad)
+                certify = np.full(blk.size, below.max() if below.size else -np.inf)
+            new, best, refused, lazy = _fastcalls.angle_choose(pts, topo, blk, good, floors, keep, nearest, certify)
+            return new, best, int(refused.sum()), lazy
         target = angle_target(pts, topo, blk)
         s_a = geom.score(target)
         refused = int((s_a <= INVALID + 0.5).sum())
@@ -394,7 +401,7 @@ def step(
                 g3 = sub.restrict(stuck)
                 x, _ = first_valid(g3, c[stuck], lap[stuck])
                 new[rest[stuck]], best[rest[stuck]] = x, g3.score(x)
-        return new, best, refused
+        return new, best, refused, None
 
     def update(pts, blk, cur):
         if not guard:
@@ -403,12 +410,17 @@ def step(
         if not hybrid:
             new, refused = first_valid(geom, cur, angle_target(pts, topo, blk))
             return new, refused.sum()
-        new, best, refused = choose(pts, blk, cur, geom)
+        new, best, refused, lazy = choose(pts, blk, cur, geom)
         idx = np.arange(blk.size)
         n_opt = int(np.ceil(opt_fraction * blk.size)) if opt_iterations > 0 else 0
         if n_opt:
-            worst = np.argpartition(best, n_opt - 1)[:n_opt] if n_opt < blk.size else idx
             below = _per_node(topo, blk, opt_below, opt_below_quad)
+            if lazy is not None and n_opt < blk.size and lazy.any() and (best < below).sum() > n_opt:
+                v = np.partition(best, [n_opt - 1, n_opt])
+                if v[n_opt - 1] == v[n_opt]:  # a tie where argpartition cuts: its pick depends on every score
+                    z = np.flatnonzero(lazy)
+                    best[z] = geom.restrict(z).score(new[z])
+            worst = np.argpartition(best, n_opt - 1)[:n_opt] if n_opt < blk.size else idx
             worst = np.sort(worst[best[worst] < below[worst]])
         if n_opt and worst.size:
             strict = None
