@@ -335,3 +335,156 @@ def reference_untangle_pass(points, topo, method, halvings=2):
                 p[i] = x
                 break
     return np.array(p)
+
+
+# --------------------------------------------------------------------------- patch moves (issue 12)
+
+
+def _corner_q(p, c, m):
+    """(quality, angle, cross, u, w) of corner m of cell c: the angle from u = next - v to w = prev - v."""
+    k = len(c)
+    v, a, b = p[c[m]], p[c[(m + 1) % k]], p[c[m - 1]]
+    u = (a[0] - v[0], a[1] - v[1])
+    w = (b[0] - v[0], b[1] - v[1])
+    cr = u[0] * w[1] - u[1] * w[0]
+    th = math.atan2(cr, u[0] * w[0] + u[1] * w[1])
+    return (min(th, math.pi - th) if k == 4 else th), th, cr, u, w
+
+
+def _ref_min_norm(G, iterations=50):
+    a = len(G)
+    M = [[sum(x * y for x, y in zip(G[i], G[j])) for j in range(a)] for i in range(a)]
+    lam = [1.0 / a] * a
+    for _ in range(iterations):
+        g = [sum(M[i][j] * lam[j] for j in range(a)) for i in range(a)]
+        lg = sum(lam[i] * g[i] for i in range(a))
+        if lg - min(g) <= 0.0:
+            break
+        gmin, gabs = min(g), max(abs(x) for x in g)
+        j = next(i for i in range(a) if g[i] <= gmin + 1e-9 * gabs)
+        d = [-x for x in lam]
+        d[j] += 1.0
+        Md = [sum(M[i][k] * d[k] for k in range(a)) for i in range(a)]
+        den = sum(d[i] * Md[i] for i in range(a))
+        if den <= 0.0:
+            break
+        t = min(1.0, max(0.0, -sum(lam[i] * Md[i] for i in range(a)) / den))
+        if t == 0.0:
+            break
+        lam = [lam[i] + t * d[i] for i in range(a)]
+    return [sum(lam[i] * G[i][k] for i in range(a)) for k in range(len(G[0]))]
+
+
+def reference_patch_moves(points, topo, floors=None, below=30.0, cells=8, rings=2, iterations=30, eps=2.0,
+                          area_band=0.8, area_limits=None):
+    """Stage 5 of the default ``angle`` (``smoothers._patch``), patch by patch with plain loops."""
+    p = [tuple(map(float, x)) for x in points]
+    allc = cells_of(topo)
+    nb = neighbours(allc, len(p))
+    inc = [[] for _ in p]
+    for ci, c in enumerate(allc):
+        for v in c:
+            inc[v].append(ci)
+    fixed = [bool(f) for f in topo.fixed]
+    loc = {int(v): i for i, v in enumerate(topo.free_nodes)}
+    qual = []
+    for c in allc:
+        qs = [_corner_q(p, c, m) for m in range(len(c))]
+        qual.append(min(q[0] for q in qs) if all(q[2] > 0 for q in qs) else -1.0)
+    cand = sorted((q, ci) for ci, q in enumerate(qual) if q < math.radians(below))
+    used = set()
+    done = 0
+    for _, ci in cand:
+        if done >= cells:
+            break
+        nodes = sorted({v for v in allc[ci] if not fixed[v]})
+        if not nodes:
+            continue
+        for _ in range(rings):
+            nodes = sorted(set(nodes) | {j for v in nodes for j in nb[v] if not fixed[j]})
+        ids = sorted({c for v in nodes for c in inc[v]})
+        done += 1
+        if used & set(ids):
+            continue
+        used |= set(ids)
+        pc = [allc[c] for c in ids if len(allc[c]) == 3] + [allc[c] for c in ids if len(allc[c]) == 4]
+        corners = [(c, m) for k in (3, 4) for m in range(k) for c in pc if len(c) == k]
+        slot = {v: i for i, v in enumerate(nodes)}
+        rows = []
+        if floors is not None and floors.active:
+            for tab, verts, fa, f1, f2 in ((topo.tri_loc, topo.tri_verts, floors.t_area2, floors.t_e1, floors.t_e2),
+                                           (topo.quad_loc, topo.quad_verts, floors.q_area2, floors.q_e1, floors.q_e3)):
+                for r in range(len(tab)):
+                    if int(topo.free_nodes[tab[r]]) in slot and fa[r] > 0:
+                        rows.append((list(map(int, verts[r])), float(fa[r]), float(f1[r]), float(f2[r])))
+
+        def area(q, c):
+            if len(c) == 3:
+                return 0.5 * ((q[c[1]][0] - q[c[0]][0]) * (q[c[2]][1] - q[c[0]][1]) - (q[c[1]][1] - q[c[0]][1]) * (q[c[2]][0] - q[c[0]][0]))
+            return 0.5 * ((q[c[2]][0] - q[c[0]][0]) * (q[c[3]][1] - q[c[1]][1]) - (q[c[2]][1] - q[c[0]][1]) * (q[c[3]][0] - q[c[1]][0]))
+
+        a0 = [area(p, c) for c in pc]
+        lo0, hi0 = min(a0), max(a0)
+        lo, hi = -math.inf, math.inf
+        if area_band is not None:
+            lo, hi = area_band * lo0, hi0 / area_band
+            if area_limits is not None:
+                lo, hi = max(lo, min(area_limits[0], lo0)), min(hi, max(area_limits[1], hi0))
+
+        def score(q):
+            cs = [_corner_q(q, c, m) for c, m in corners]
+            if any(x[2] <= 0 for x in cs):
+                return -math.inf
+            ar = [area(q, c) for c in pc]
+            if min(ar) < lo or max(ar) > hi:
+                return -math.inf
+            for vv, fa, f1, f2 in rows:
+                if 2 * area(q, vv) < fa or math.dist(q[vv[1]], q[vv[0]]) < f1 or math.dist(q[vv[-1]], q[vv[0]]) < f2:
+                    return -math.inf
+            return min(x[0] for x in cs)
+
+        f0 = score(p)
+        if not math.isfinite(f0):
+            continue
+        h = sum(math.hypot(*_corner_q(p, c, m)[3]) for c, m in corners) / len(corners)
+        t, e = 0.1 * h, math.radians(eps)
+        for _ in range(iterations):
+            cs = [_corner_q(p, c, m) for c, m in corners]
+            qmin = min(x[0] for x in cs)
+            G = []
+            for (c, m), (qq, th, cr, u, w) in zip(corners, cs):
+                if qq > qmin + e:
+                    continue
+                s = -1.0 if len(c) == 4 and th > math.pi / 2 else 1.0
+                k = len(c)
+                gp = (-w[1] / (w[0] ** 2 + w[1] ** 2) * s, w[0] / (w[0] ** 2 + w[1] ** 2) * s)
+                gn = (u[1] / (u[0] ** 2 + u[1] ** 2) * s, -u[0] / (u[0] ** 2 + u[1] ** 2) * s)
+                g = [0.0] * (2 * len(nodes))
+                for node, vec in ((c[m - 1], gp), (c[(m + 1) % k], gn), (c[m], (-(gp[0] + gn[0]), -(gp[1] + gn[1])))):
+                    if node in slot:
+                        g[2 * slot[node]] += vec[0]
+                        g[2 * slot[node] + 1] += vec[1]
+                G.append(g)
+            d = _ref_min_norm(G)
+            nd = math.sqrt(sum(x * x for x in d))
+            if nd < 1e-12:
+                e *= 0.5
+                if e < 1e-4:
+                    break
+                continue
+            moved = False
+            for j in range(8):
+                st = t * 0.5**j
+                q = list(p)
+                for v, i in slot.items():
+                    q[v] = (p[v][0] + st * d[2 * i] / nd, p[v][1] + st * d[2 * i + 1] / nd)
+                f = score(q)
+                if f > f0 + 1e-10:
+                    p, f0, t, moved = q, f, min(2 * st, 0.5 * h), True
+                    break
+            if not moved:
+                e *= 0.5
+                t = t * 0.5**7
+                if e < 1e-4:
+                    break
+    return np.array(p)

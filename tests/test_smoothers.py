@@ -13,7 +13,7 @@ from anglesmooth.smoothers import SMOOTHERS, get_smoother
 from anglesmooth.errors import UnknownMethodError
 from anglesmooth.topology import build_topology, signed_areas
 
-from reference import kernel_centroid_ref, reference_pass, reference_untangle_pass
+from reference import kernel_centroid_ref, reference_pass, reference_patch_moves, reference_untangle_pass
 
 METHODS = sorted(SMOOTHERS)
 SEEDS = range(5)
@@ -200,8 +200,10 @@ def test_literal_angle_beats_laplacian_on_paper_triangle_meshes():
 
 def test_optimization_reaches_the_best_min_angle_on_triangles():
     results = {m: _mean_quality(generate.paper_triangle_mesh, m)["min_angle"] for m in METHODS}
-    best = max(results.values())
+    # the default ``angle`` may do better (its stage 5 moves patches of nodes together: 25.9 against 23.8)
+    best = max(v for k, v in results.items() if k != "angle")
     assert results["optimization"] >= best - 1.0, results
+    assert results["angle"] >= results["optimization"] - 1.0, results
     assert results["optimization"] > results["laplacian"] + 5, results
 
 
@@ -251,7 +253,7 @@ def test_jacobi_order_is_guarded_too(order):
 def test_vectorized_matches_per_node_reference(method, guard, gen_name):
     mesh = getattr(generate, gen_name)(seed=4)
     topo = build_topology(mesh)
-    opts = {"opt_iterations": 0} if method == "angle" else {}
+    opts = {"opt_iterations": 0, "patch_cells": 0} if method == "angle" else {}
     p = mesh.points
     q = mesh.points
     for _ in range(2):
@@ -283,7 +285,7 @@ def test_stuck_nodes_take_the_guarded_laplacian_move_as_the_reference_does(free_
     monkeypatch.setattr(angle_mod, "first_valid", lambda *a, **k: calls.append(1) or real(*a, **k))
     q = r = mesh.points
     for _ in range(3):
-        q = get_smoother("angle").step(q, topo, opt_iterations=0).points
+        q = get_smoother("angle").step(q, topo, opt_iterations=0, patch_cells=0).points
         r = reference_pass(r, topo, "angle")
     assert calls  # stage 3 was reached
     np.testing.assert_allclose(q, r, rtol=0, atol=1e-9 * np.ptp(mesh.points))
@@ -654,3 +656,37 @@ def test_default_does_not_shear_boundary_layer_quads_to_lift_triangles():
     old = top(smooth(mesh, "angle", 10, topology=topo, strict_quads=False).points)
     assert now <= before + 5.0 and now < lap
     assert old > before + 10.0  # the mechanism the option removes is there on this mesh
+
+
+# --------------------------------------------------------------------------- patch moves (stage 5)
+
+
+@pytest.mark.parametrize("gen_name,seed", [("paper_mixed_mesh", 0), ("paper_triangle_mesh", 2), ("graded_mesh", 1)])
+def test_patch_moves_match_the_per_patch_reference(gen_name, seed):
+    """Stage 5 (``smoothers._patch``) against the plain-loop reference, floors and area limits included."""
+    from anglesmooth.smoothers._floors import input_floors
+    from anglesmooth.smoothers._patch import patch_moves
+
+    mesh = getattr(generate, gen_name)(seed=seed)
+    topo = build_topology(mesh)
+    floors = input_floors(np.array(mesh.points), topo)
+    p = smooth(mesh, "angle", 3, topology=topo, patch_cells=0).points
+    a = signed_areas(p, topo.tri, topo.quad)
+    limits = (float(a.min()), float(a.max()))
+    got = patch_moves(p, topo, floors, cells=4, iterations=12, area_limits=limits)
+    want = reference_patch_moves(p, topo, floors, cells=4, iterations=12, area_limits=limits)
+    assert np.abs(got - p).max() > 1e-3 * np.ptp(mesh.points)  # something moved
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * np.ptp(mesh.points))
+    assert np.array_equal(got[topo.fixed], p[topo.fixed])
+
+
+def test_patch_moves_repair_the_trapped_valence3_sliver():
+    """Paper-style mixed mesh, seed 0: a valence-3 node inside a boundary sliver with two fixed corners;
+    no single node can lift it (18.7 deg after 10 passes without stage 5), the patch can (20.3)."""
+    mesh = generate.paper_mixed_mesh(seed=0)
+    topo = build_topology(mesh)
+    without = summarize(smooth(mesh, "angle", 10, topology=topo, patch_cells=0).points, topo)
+    with_ = summarize(smooth(mesh, "angle", 10, topology=topo).points, topo)
+    assert without["min_angle"] < 19.0
+    assert with_["min_angle"] > 20.0
+    assert with_["inverted"] == 0 and with_["nonconvex_quads"] == 0
