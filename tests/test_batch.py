@@ -403,7 +403,11 @@ def test_a_dask_worker_terminated_mid_write_leaves_no_temporary_file(tmp_path):
 
         import anglesmooth.io as aio
 
+        real = aio._write_meshio
+
         def half(tmp, *args, **kwargs):
+            if ".anglesmooth-" not in str(tmp):  # the output check's sample
+                return real(tmp, *args, **kwargs)
             with open(tmp, "wb") as fh:
                 fh.write(b"<VTKFile half written")
             flag.write_text(str(os.getpid()))

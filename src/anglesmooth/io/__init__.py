@@ -295,14 +295,16 @@ def _write_xdmf_hdf(tmp: str, out, final: Path) -> None:
     behind and keeps the one that was there), outside one it is renamed into
     place at once.
 
-    A symlinked OUTPUT ``out.xdmf``: the XDMF replaces the link's target, as
-    every output does, and its ``.h5`` is ``out.h5`` beside the link, the path
-    the command line checks like every other output (it used to go beside the
-    link's target, a path nobody checked, where it could replace an input).
-    The XDMF names its ``.h5`` relative to itself, so it is read through the link.
+    A symlinked OUTPUT ``out.xdmf -> elsewhere/real.xdmf`` is followed, as every
+    output: the XDMF replaces ``real.xdmf`` and its data is ``elsewhere/real.h5``,
+    the name it refers to (meshio's reader looks for it beside the link's target),
+    the path the command line checks like every other output.  It used to be
+    ``elsewhere/out.h5``, a path nobody checked, where it could replace an input.
     """
     import meshio
 
+    if os.path.islink(final):
+        final = Path(os.path.realpath(final))
     target = final.with_suffix(".h5")
     with _paths.temporary_directory(Path(tmp).parent, prefix=f".{final.name}.tmp") as d:
         x = Path(d) / final.name
