@@ -578,12 +578,14 @@ def test_huge_declared_node_count(tmp_path):
 
 def test_io_write_cannot_create_temporary_file(tmp_path, monkeypatch):
     """A read-only directory (simulated: root passes os.access): MeshWriteError, nothing left."""
-    import tempfile
+    real = os.open
 
-    def denied(*a, **k):
-        raise PermissionError(13, "Permission denied")
+    def denied(path, flags, *a, **k):  # creating the temporary file (O_EXCL) is refused, as in a read-only dir
+        if flags & os.O_EXCL:
+            raise PermissionError(13, "Permission denied")
+        return real(path, flags, *a, **k)
 
-    monkeypatch.setattr(tempfile, "mkstemp", denied)
+    monkeypatch.setattr(os, "open", denied)
     with pytest.raises(MeshWriteError, match="cannot create a file in .*Permission denied"):
         asio.write(Mesh2D.from_arrays(GRID.points, triangles=T), tmp_path / "o.vtu")
     assert os.listdir(tmp_path) == []

@@ -25,7 +25,7 @@ from cli_runner import cli_runner, digest
 from anglesmooth import FileResult, Mesh2D, check_files, read, smooth_files
 from anglesmooth.batch import BatchError, find_mesh_files, output_name
 from anglesmooth.cli import cli
-from anglesmooth.generate import paper_mixed_mesh, paper_triangle_mesh, random_delaunay
+from anglesmooth.generate import paper_mixed_mesh, paper_triangle_mesh, random_delaunay, structured_quads
 from anglesmooth.io import write
 
 SRC = str(Path(__file__).resolve().parents[1] / "src")
@@ -386,6 +386,64 @@ def test_local_cluster_is_bit_identical_to_serial(work, cluster, monkeypatch):
     assert (local.exit_code, local.stdout, local.stderr) == (remote.exit_code, remote.stdout, remote.stderr)
 
 
+def test_a_dask_worker_terminated_mid_write_leaves_no_temporary_file(tmp_path):
+    """SIGTERM to a Dask worker process while its thread writes the output: the signal goes to the worker's
+    main thread (its event loop) and ended the process there, leaving the staged file beside the output
+    (``.out.vtu.anglesmooth-XXXXXXXX.vtu``).  Now the temporaries are removed first; the output is not written."""
+    import threading
+
+    distributed = pytest.importorskip("distributed", reason="Dask is an optional extra (anglesmooth[dask])")
+    import dask
+
+    write(random_delaunay(2_000, seed=5), tmp_path / "a.vtu")
+    flag = tmp_path / "writing"
+
+    def slow_writes():  # in the worker: the write stops halfway, with its temporary file there
+        import time
+
+        import anglesmooth.io as aio
+
+        real = aio._write_meshio
+
+        def half(tmp, *args, **kwargs):
+            if ".anglesmooth-" not in str(tmp):  # the output check's sample
+                return real(tmp, *args, **kwargs)
+            with open(tmp, "wb") as fh:
+                fh.write(b"<VTKFile half written")
+            flag.write_text(str(os.getpid()))
+            time.sleep(120)
+
+        aio._write_meshio = half
+
+    old = os.environ.get("PYTHONPATH")
+    os.environ["PYTHONPATH"] = ENV["PYTHONPATH"]
+    try:
+        with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
+                distributed.LocalCluster(n_workers=1, processes=True, threads_per_worker=1, dashboard_address=":0",
+                                         silence_logs=50) as lc, distributed.Client(lc) as client:
+            client.run(slow_writes)
+            results = []
+            t = threading.Thread(target=lambda: results.extend(
+                smooth_files([str(tmp_path / "a.vtu")], output_dir=str(tmp_path / "out"), client=client, passes=1)))
+            t.start()
+            for _ in range(1200):
+                if flag.exists():
+                    break
+                t.join(0.1)
+            assert flag.exists(), results
+            assert [f for f in os.listdir(tmp_path / "out") if ".anglesmooth-" in f]  # mid-write: the temporary
+            os.kill(int(flag.read_text()), signal.SIGTERM)
+            t.join(120)
+            assert not t.is_alive()
+    finally:
+        if old is None:
+            os.environ.pop("PYTHONPATH", None)
+        else:
+            os.environ["PYTHONPATH"] = old
+    assert len(results) == 1 and results[0].exit_code != 0
+    assert os.listdir(tmp_path / "out") == []
+
+
 def test_scheduler_without_dask_is_a_usage_error(work):
     code = ("import sys; sys.modules['distributed'] = None; sys.modules['dask'] = None\n"
             "from anglesmooth.cli import main; main(sys.argv[1:])\n")
@@ -480,20 +538,33 @@ def test_the_h5_of_an_xdmf_output_is_an_output(tmp_path, monkeypatch):
 
 
 def test_an_output_format_that_cannot_hold_the_mesh_fails_before_smoothing(tmp_path, monkeypatch):
-    """As for one file: OBJ holds no line cells, so a gmsh mesh with boundary lines fails with the reason in
-    words before it is smoothed (the error came from meshio's writer after the smoothing, in other words)."""
-    import meshio
-
+    """As for one file: STL holds no quads, so a quad mesh fails with the reason in words before it is
+    smoothed (the error came from meshio's writer after the smoothing, in other words)."""
     from anglesmooth import driver
 
-    m = paper_triangle_mesh(seed=1)
-    edges = np.array([[0, 1]])
-    meshio.write(tmp_path / "a.vtu", meshio.Mesh(m.points, [("triangle", m.triangles), ("line", edges)]))
+    write(structured_quads(6, 6), tmp_path / "a.vtu")
     calls = []
     monkeypatch.setattr(driver, "smooth", lambda *a, **k: calls.append(1))
-    (r,) = smooth_files([str(tmp_path / "a.vtu")], output_dir=str(tmp_path / "out"), extension=".obj")
-    assert r.exit_code == 3 and "the obj format cannot hold this mesh" in r.error, r.error
+    (r,) = smooth_files([str(tmp_path / "a.vtu")], output_dir=str(tmp_path / "out"), extension=".stl")
+    assert r.exit_code == 3 and "the stl format cannot hold this mesh: its quad cells would be lost" in r.error, r.error
     assert calls == [] and os.listdir(tmp_path / "out") == []
+
+
+def test_obj_output_leaves_out_line_cells(tmp_path):
+    """OBJ (meshio's writer) holds faces only: a mesh with boundary lines (every gmsh mesh) was refused ("the obj
+    format cannot hold this mesh"); its line cells are left out, as STL, OFF and WKT do, the faces kept."""
+    import meshio
+
+    m = paper_triangle_mesh(seed=1)
+    edges = np.array([[0, 1], [1, 2]])
+    meshio.write(tmp_path / "a.vtu", meshio.Mesh(m.points, [("line", edges), ("triangle", m.triangles)],
+                                                 cell_data={"gmsh:physical": [np.array([5, 5]),
+                                                                              np.ones(len(m.triangles), int)]}))
+    (r,) = smooth_files([str(tmp_path / "a.vtu")], output_dir=str(tmp_path / "out"), extension=".obj", passes=2)
+    assert r.exit_code == 0, r.error
+    back = meshio.read(tmp_path / "out" / "a.obj")
+    assert [(c.type, len(c.data)) for c in back.cells] == [("triangle", len(m.triangles))]
+    np.testing.assert_array_equal(back.cells[0].data, m.triangles)
 
 
 def test_json_report_inside_the_output_dir_it_creates(tmp_path, monkeypatch):

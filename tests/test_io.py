@@ -398,7 +398,7 @@ def test_write_errors(msh_files, tmp_path):
     with pytest.raises(MeshWriteError, match="is a directory"):
         (tmp_path / "d.vtu").mkdir()
         asio.write(m, tmp_path / "d.vtu")
-    with pytest.raises(MeshWriteError, match="unknown file extension"):
+    with pytest.raises(MeshWriteError, match=r"unknown file extension '\.foo' \(name the format with --output-format\)"):
         asio.write(m, tmp_path / "o.foo")
     with pytest.raises(InvalidMeshError):
         asio.write(m, tmp_path / "o.vtu", points=m.points[:-1])
@@ -463,6 +463,36 @@ def test_read_errors_are_one_line(msh_files, tmp_path):
             asio.read(path)
         msg = str(info.value)
         assert msg.startswith(f"cannot read '{path}'") and "\n" not in msg and needle in msg, msg
+
+
+def test_not_planar_message_has_no_negative_zero(monkeypatch):
+    """The normal of the fitted plane printed a negative zero: 'normal (3.88e-06, -0, 1)' (tests/BAD_INPUTS.md,
+    non-planar-bump).  LAPACK returned the normal pointing down, with exact zeros, and flipping it made them -0.0;
+    here eigh returns such a normal whatever this machine's LAPACK does."""
+    from anglesmooth.generate import structured_triangles
+    from anglesmooth.plane import describe, fit_plane
+
+    real = np.linalg.eigh
+
+    def eigh(a):
+        w, v = real(a)
+        v = v.copy()
+        v[:, 0] = [0.0, 0.0, -1.0]
+        return w, v
+
+    monkeypatch.setattr(np.linalg, "eigh", eigh)
+    grid = structured_triangles(4, 4)  # the corpus's case: its centre node lifted by 1e-3
+    p = np.column_stack([grid.points, np.zeros(grid.n_points)])
+    p[12, 2] = 1e-3
+    with pytest.raises(UnsupportedMeshError, match=r"from the best-fit plane \(normal \(0, 0, 1\)\), more than"):
+        fit_plane(p)
+    p[:, 2] = 1e-3 * (np.arange(grid.n_points) % 2)  # not coplanar either way; describe() of a frame as fitted
+    with pytest.raises(UnsupportedMeshError, match=r"normal \(0, 0, 1\)"):
+        fit_plane(p)
+    from anglesmooth.plane import PlaneFrame
+
+    assert describe(PlaneFrame(np.array([-0.0, 1.0, -0.0]), np.array([[-0.0, 1.0, 0.0], [1.0, -0.0, 0.0]]))) == \
+        "plane through (0, 1, 0) with normal (0, 0, -1)"
 
 
 def test_bad_geometry(tmp_path):

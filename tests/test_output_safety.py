@@ -710,3 +710,24 @@ def test_xdmf_hdf5_data_is_committed_with_the_other_outputs(work):
     p = run_cli(work / "in.vtu", work / "out.xdmf")
     assert p.returncode == 0, p.stderr
     assert read(work / "out.xdmf").n_points == read(work / "in.vtu").n_points
+
+
+def test_a_symlinked_xdmf_output_writes_its_h5_beside_the_target(work, monkeypatch):
+    """OUTPUT out.xdmf -> elsewhere/real.xdmf is followed (as every symlinked output): the XDMF replaces real.xdmf
+    and its HDF5 data is elsewhere/real.h5, which it refers to and which is checked like the other outputs.  It
+    was elsewhere/out.h5, a path nobody checked: there it replaced an input (here the --fix-nodes file), and it
+    was written at once instead of being committed with the other outputs."""
+    monkeypatch.chdir(work)
+    (work / "elsewhere").mkdir()
+    (work / "elsewhere" / "out.h5").write_text("1 2\n")  # an input where the .h5 used to go
+    os.symlink("elsewhere/real.xdmf", work / "out.xdmf")
+    p = run_cli("in.vtu", "out.xdmf", "--fix-nodes", "elsewhere/out.h5", "-q", cwd=work)
+    assert p.returncode == 0, p.stderr
+    assert (work / "elsewhere" / "out.h5").read_text() == "1 2\n"
+    assert sorted(os.listdir(work / "elsewhere")) == ["out.h5", "real.h5", "real.xdmf"]
+    assert os.readlink(work / "out.xdmf") == "elsewhere/real.xdmf" and not (work / "out.h5").exists()
+    assert read(work / "out.xdmf").n_points == read(work / "in.vtu").n_points  # through the link
+    # the .h5 beside the target is checked as an output: it may not be an input
+    p = run_cli("in.vtu", "out.xdmf", "--fix-nodes", "elsewhere/real.h5", cwd=work)
+    assert p.returncode == 2 and "the .h5 beside OUTPUT" in p.stderr.decode() and \
+        "is the same file as --fix-nodes 'elsewhere/real.h5'" in p.stderr.decode(), p.stderr

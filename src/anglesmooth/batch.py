@@ -24,8 +24,10 @@ pool runs cancels the files not started and sends SIGTERM to the workers; a
 worker in the middle of a write removes its temporary file and exits 143, so no
 partial output is left (every output is written atomically); a worker that gets
 SIGTERM while numba compiles acts on it once the compiler is done, as the CLI
-does (:mod:`anglesmooth._signals`).  Files finished
-before the interruption keep their complete outputs.
+does (:mod:`anglesmooth._signals`).  A Dask worker terminated (SIGTERM) while one of
+its threads writes removes the temporary files of the write before it ends
+(:func:`_guard_worker_thread`).  Files finished before the interruption keep
+their complete outputs.
 
 >>> import os, tempfile
 >>> from anglesmooth.generate import structured_quads
@@ -52,11 +54,13 @@ import multiprocessing
 import os
 import signal
 import sys
+import threading
 import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from . import _paths
 from ._signals import Deferred
 from .errors import AngleSmoothError
 from .fixing import fixed_mask
@@ -263,7 +267,7 @@ class _SmoothTask(_Task):
 # ---------------------------------------------------------------------------------------------- executors
 
 # per process: set in pool workers by _init_worker; "stop" once SIGTERM arrived
-_WORKER = {"busy": False, "stop": False}
+_WORKER = {"busy": False, "stop": False, "guarded": False}
 
 
 class _Stop(BaseException):
@@ -271,9 +275,12 @@ class _Stop(BaseException):
 
 
 def _stop(signum: int) -> None:  # pragma: no cover - runs in worker processes
+    if _WORKER["stop"]:  # a second SIGTERM while the first unwinds: the unwinding removes the temporaries
+        return
     _WORKER["stop"] = True
     if _WORKER["busy"]:
         raise _Stop()
+    _paths.remove_temporaries()
     os._exit(128 + signum)
 
 
@@ -294,15 +301,43 @@ def _init_worker(threads: int) -> None:  # pragma: no cover - runs in worker pro
 
 
 def _execute(task: _Task) -> FileResult:
+    if threading.current_thread() is not threading.main_thread():
+        _guard_worker_thread()
     _WORKER["busy"] = True
     try:
         return task()
     except BaseException:
         if _WORKER["stop"]:  # pragma: no cover - runs in worker processes
+            _paths.remove_temporaries()
             os._exit(128 + signal.SIGTERM)
         raise
     finally:
         _WORKER["busy"] = False
+
+
+def _guard_worker_thread() -> None:
+    """In a Dask worker's thread: the worker's loop (main thread) makes SIGTERM remove our temporaries first
+    (:func:`._paths.remove_temporaries_on_sigterm`; the signal ended the process there mid-write), once."""
+    if _WORKER["guarded"]:
+        return
+    _WORKER["guarded"] = True
+    try:
+        from distributed import get_worker
+
+        loop = get_worker().loop
+    except Exception:  # noqa: BLE001 - not in a Dask worker (or no distributed)
+        return
+    done = threading.Event()
+
+    def install() -> None:  # nothing when the loop is not the main thread (a cluster of threads)
+        try:
+            with contextlib.suppress(ValueError):
+                _paths.remove_temporaries_on_sigterm()
+        finally:
+            done.set()
+
+    loop.add_callback(install)
+    done.wait(10)
 
 
 class _InOrder:

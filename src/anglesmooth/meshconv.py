@@ -255,7 +255,25 @@ def out_mesh(mesh: Mesh2D, src: Source | None, xy: np.ndarray, fmt: str):
     m = copy_with_points(mesh, src, xy)
     if fmt.startswith("gmsh") and not m.field_data:
         _names_from_sets(m)
+    if fmt in _FACES_ONLY:
+        _drop_line_cells(m)
     return _adapt_sets(m, fmt)
+
+
+#: Formats whose meshio writer holds 2D faces only and refuses line / vertex cells (STL, OFF and WKT drop them).
+_FACES_ONLY = ("obj",)
+
+
+def _drop_line_cells(m) -> None:
+    """Leave out the line and vertex cell blocks (boundary and point markers) with their cell data and sets,
+    as the STL, OFF and WKT writers do: a gmsh mesh (which has boundary lines) can then be written."""
+    keep = [b for b, c in enumerate(m.cells) if not (c.type == "vertex" or c.type.startswith("line"))]
+    if len(keep) == len(m.cells) or not keep:
+        return
+    n = len(m.cells)
+    m.cells = [m.cells[b] for b in keep]
+    m.cell_data = {k: [v[b] for b in keep] for k, v in m.cell_data.items() if len(v) == n}
+    m.cell_sets = {k: [v[b] for b in keep] for k, v in m.cell_sets.items() if len(v) == n}
 
 
 def _names_from_sets(m) -> None:

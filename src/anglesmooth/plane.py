@@ -87,6 +87,15 @@ class PlaneFrame:
         return out
 
 
+def _num(value: float, spec: str) -> str:
+    """``value`` formatted with ``spec``, a negative zero (an eigenvector's -0.0) printed as 0.
+
+    >>> _num(-0.0, ".3g"), _num(-1e-300 * 1e-300, ".3g"), _num(-0.5, ".3g")
+    ('0', '0', '-0.5')
+    """
+    return format(float(value) + 0.0, spec)
+
+
 def _size(p: np.ndarray) -> float:
     return max(float(np.ptp(p[:, k])) for k in range(p.shape[1]))  # per column: faster than axis=0 on (N, 3)
 
@@ -121,7 +130,7 @@ def fit_plane(points3: np.ndarray) -> tuple[PlaneFrame, np.ndarray]:
     tol = PLANE_TOL * size + 8 * np.finfo(np.float64).eps * scale
     worst = int(np.argmax(dist)) if dist.size else 0
     if dist.size and dist[worst] > tol:
-        normal = ", ".join(f"{v:.3g}" for v in n)
+        normal = ", ".join(_num(v, ".3g") for v in n)
         raise UnsupportedMeshError(
             f"mesh is not planar: node {worst} lies {dist[worst]:.3g} from the best-fit plane "
             f"(normal ({normal})), more than the tolerance {tol:.3g} ({PLANE_TOL:g} x the mesh size {size:.3g})"
@@ -136,6 +145,6 @@ def describe(frame: PlaneFrame | None) -> str:
         return "x-y plane"
     if frame.columns is not None:
         return f"{_NAMES[frame.columns[0]]}-{_NAMES[frame.columns[1]]} plane"
-    o = ", ".join(f"{v:.4g}" for v in frame.origin)
-    n = ", ".join(f"{v:.4g}" for v in frame.normal)
+    o = ", ".join(_num(v, ".4g") for v in frame.origin)
+    n = ", ".join(_num(v, ".4g") for v in frame.normal)
     return f"plane through ({o}) with normal ({n})"

@@ -22,6 +22,9 @@ The contract (README "Rules"):
   the renames (a SIGINT / SIGTERM arriving during the renames is acted on
   after them).  An error or signal before the commit leaves no output and no
   temporary file.
+* Every temporary file and directory is listed while it exists
+  (:mod:`.temps`): :func:`remove_temporaries` removes them all, for a process
+  terminated while another of its threads writes (a Dask worker).
 * Temporary files left by a killed process (SIGKILL) are found by
   :func:`stale_temporaries` (the command line mentions them, it does not
   delete them: another run may still own them).
@@ -29,9 +32,9 @@ The contract (README "Rules"):
 Writes to a stream loop until every byte is written (a non-blocking stream is
 waited for with ``select``); a closed reader raises ``BrokenPipeError``.
 
-Modules: ``stdio`` (standard descriptors), ``targets`` (resolving and checking
-outputs) and ``staging`` (writing, :class:`Outputs`), each importing only the
-ones before it; everything is imported here: ``from anglesmooth._paths import X``.
+Modules: ``temps`` (the temporaries of unfinished writes), ``stdio`` (standard
+descriptors), ``targets`` (resolving and checking outputs) and ``staging``
+(writing, :class:`Outputs`), each importing only the ones before it; everything is imported here: ``from anglesmooth._paths import X``.
 """
 
 from __future__ import annotations
@@ -39,6 +42,8 @@ from __future__ import annotations
 from .staging import Outputs, active, atomic_write, write_all
 from .stdio import STDIO, carries_stdout, mark_closed_std_fds, std_fd_closed
 from .targets import TAG, OutputConflictError, Target, check_outputs, glob_escape, resolve_output, stale_temporaries
+from .temps import remove_temporaries, remove_temporaries_on_sigterm, temporary_directory
 
 __all__ = ["OutputConflictError", "Outputs", "Target", "active", "atomic_write", "carries_stdout", "check_outputs",
-           "mark_closed_std_fds", "resolve_output", "stale_temporaries", "std_fd_closed", "write_all"]
+           "mark_closed_std_fds", "remove_temporaries", "remove_temporaries_on_sigterm", "resolve_output", "stale_temporaries", "std_fd_closed",
+           "temporary_directory", "write_all"]

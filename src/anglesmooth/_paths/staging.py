@@ -16,6 +16,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from . import temps
 from .targets import TAG, Target, check_outputs, resolve_output
 
 __all__ = ["Outputs", "active", "atomic_write", "write_all"]
@@ -54,10 +55,9 @@ class _Staged:
     private_dir: Path | None = None
 
     def discard(self) -> None:
-        with contextlib.suppress(OSError):
-            self.tmp.unlink()
+        temps.remove(self.tmp)
         if self.private_dir is not None:
-            shutil.rmtree(self.private_dir, ignore_errors=True)
+            temps.remove(self.private_dir)
 
     def stream(self) -> None:
         """Copy the staged bytes into the stream the target names."""
@@ -113,6 +113,7 @@ class _Staged:
                 mode = _umask_mode()
             os.chmod(self.tmp, mode)
             os.replace(self.tmp, real)
+            temps.forget(self.tmp)
         except OSError as exc:
             raise t.error(exc.strerror or str(exc)) from None
         with contextlib.suppress(OSError):  # make the rename itself durable
@@ -126,12 +127,11 @@ class _Staged:
 def _stage(target: Target, suffix: str) -> _Staged:
     if target.kind == "regular":
         try:
-            fd, tmp = tempfile.mkstemp(prefix=f".{target.path.name}{TAG}", suffix=suffix, dir=target.path.parent)
+            tmp = temps.make_temp(target.path.parent, f".{target.path.name}{TAG}", suffix)
         except OSError as exc:
             raise target.error(f"cannot create a file in '{target.path.parent}': {exc.strerror or exc}") from None
-        os.close(fd)
-        return _Staged(target, Path(tmp))
-    private = Path(tempfile.mkdtemp(prefix="anglesmooth-"))
+        return _Staged(target, tmp)
+    private = temps.make_temp(tempfile.gettempdir(), "anglesmooth-", is_dir=True)
     return _Staged(target, private / ("stream" + suffix), private)
 
 

@@ -9,13 +9,13 @@ import os
 import re
 import stat
 import sys
-import tempfile
 import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import AngleSmoothError, MeshWriteError
+from . import temps
 from .stdio import STDIO, _std_fd, std_fd_closed
 
 __all__ = ["OutputConflictError", "Target", "check_outputs", "resolve_output", "stale_temporaries"]
@@ -122,8 +122,7 @@ def resolve_output(path: str | os.PathLike, what: str = "cannot write", *, stdio
     if st is not None:
         target.ident, target.st_mode = _ident(st), st.st_mode
     try:  # root passes os.access on read-only file systems (and /sys, /proc): creating a file tells
-        with tempfile.NamedTemporaryFile(dir=parent, prefix=".anglesmooth-probe-"):
-            pass
+        temps.remove(temps.make_temp(parent, ".anglesmooth-probe-"))
     except OSError as exc:
         raise target.error(f"cannot create a file in '{parent}': {exc.strerror or exc}") from None
     return target

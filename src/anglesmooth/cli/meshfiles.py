@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -184,7 +185,10 @@ def hdf5_beside(output: str | None, output_format: str | None) -> str | None:
             fmt = _resolve(Path(output).suffix.lstrip(".").lower() or None)
         except UnknownFormatError:
             return None
-    return str(Path(output).with_suffix(".h5")) if fmt == "xdmf" else None
+    if fmt != "xdmf":
+        return None
+    # a symlinked OUTPUT is followed: the data goes beside (and is named after) the link's target
+    return str(Path(os.path.realpath(output) if os.path.islink(output) else output).with_suffix(".h5"))
 
 
 def plan_outputs(outputs: dict, inputs: list, may_replace_input=(), created=()) -> _paths.Outputs:

@@ -32,8 +32,9 @@ Format notes
 
 from __future__ import annotations
 
+import errno
 import os
-import tempfile
+import shutil
 from dataclasses import replace
 from pathlib import Path
 
@@ -251,7 +252,8 @@ def output_format(path, file_format: str | None = None) -> str:
     cands = _formats_for(p)
     if not cands:
         raise MeshWriteError(
-            f"cannot write '{p}': unknown file extension '{''.join(p.suffixes) or '(none)'}' (name the format)"
+            f"cannot write '{p}': unknown file extension '{''.join(p.suffixes) or '(none)'}' "
+            "(name the format with --output-format)"
         )
     return "gmsh" if "gmsh" in cands else cands[0]
 
@@ -281,29 +283,45 @@ def _has_h5py() -> bool:
 
 
 def _write_xdmf_hdf(tmp: str, out, final: Path) -> None:
-    """XDMF with HDF5 data; the ``.h5`` is ``final`` with suffix ``.h5``, beside it.
+    """XDMF with HDF5 data; the ``.h5`` is ``final`` (OUTPUT as named) with suffix ``.h5``, beside it.
 
     meshio names the ``.h5`` after the ``.xdmf`` it writes and refers to it by
     that name (which is why a temporary ``.xdmf`` used to get inline XML): both
-    are written under their final names in a temporary directory beside
-    ``final``; the ``.xdmf`` goes to ``tmp``, which :func:`write` renames, and the
-    ``.h5`` is written as an output of its own (:func:`._paths.atomic_write`): inside
-    a command's :class:`._paths.Outputs` it is staged and committed with the other
-    outputs (so a run that fails after the write leaves no ``.h5`` behind and keeps
-    the one that was there), outside one it is renamed into place at once.
+    are written under their final names in a temporary directory beside the
+    staged ``tmp``; the ``.xdmf`` goes to ``tmp``, which :func:`write` renames, and
+    the ``.h5`` is written as an output of its own (:func:`._paths.atomic_write`):
+    inside a command's :class:`._paths.Outputs` it is staged and committed with
+    the other outputs (so a run that fails after the write leaves no ``.h5``
+    behind and keeps the one that was there), outside one it is renamed into
+    place at once.
+
+    A symlinked OUTPUT ``out.xdmf -> elsewhere/real.xdmf`` is followed, as every
+    output: the XDMF replaces ``real.xdmf`` and its data is ``elsewhere/real.h5``,
+    the name it refers to (meshio's reader looks for it beside the link's target),
+    the path the command line checks like every other output.  It used to be
+    ``elsewhere/out.h5``, a path nobody checked, where it could replace an input.
     """
     import meshio
 
-    parent = Path(tmp).parent  # the staged file's directory: the real one when ``final`` is a symlink
-    with tempfile.TemporaryDirectory(prefix=f".{final.name}.tmp", dir=parent) as d:
+    if os.path.islink(final):
+        final = Path(os.path.realpath(final))
+    target = final.with_suffix(".h5")
+    with _paths.temporary_directory(Path(tmp).parent, prefix=f".{final.name}.tmp") as d:
         x = Path(d) / final.name
         meshio.xdmf.write(str(x), out, data_format="HDF")
         h5 = x.with_suffix(".h5")
-        target = final.with_suffix(".h5")  # as the command's outputs name it, unless a symlinked OUTPUT moved it
-        if os.path.realpath(parent / h5.name) != os.path.realpath(target):
-            target = parent / h5.name
-        _paths.atomic_write(target, lambda t: os.replace(h5, t), suffix=".h5")
+        _paths.atomic_write(target, lambda t: _move(h5, Path(t)), suffix=".h5")
         os.replace(x, tmp)
+
+
+def _move(src: Path, dst: Path) -> None:
+    """Rename ``src`` over ``dst``; copied when they are on two file systems (a symlinked OUTPUT's target)."""
+    try:
+        os.replace(src, dst)
+    except OSError as exc:
+        if exc.errno != errno.EXDEV:
+            raise
+        shutil.copyfile(src, dst)
 
 
 def _write_meshio(tmp: str, out, fmt: str, src: _Source | None, binary: bool | None, final: Path | None = None) -> None:
@@ -398,7 +416,7 @@ def check_output(mesh, path, *, file_format: str | None = None, binary: bool | N
         full = _out_mesh(mesh, src, np.asarray(mesh.points), fmt)
         sample, tags = _sample(full, src.node_tags if src is not None else None)
         sample_src = replace(src, mesh=sample, node_tags=tags) if src is not None else None
-        with tempfile.TemporaryDirectory(prefix="anglesmooth-check-") as d:
+        with _paths.temporary_directory(prefix="anglesmooth-check-") as d:
             target = Path(d) / ("sample" + ("".join(p.suffixes[-2:]) if fmt in ("permas", "netgen") else p.suffix))
             with _quiet():
                 _write_meshio(str(target), sample, fmt, sample_src, binary, final=target)
