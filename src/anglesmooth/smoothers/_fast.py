@@ -100,15 +100,23 @@ MIN_CHUNK = 8192
 #: Chunks per thread: a thread on a busy core takes fewer of them instead of holding the others up.
 CHUNKS_PER_THREAD = 4
 
-#: Compile time of each kernel, s (serial, cold cache, this 2-core VM at load 2, CPU time ~ wall):
-#: only for the estimate that :func:`compile_estimate` gives before a run; unknown kernels count
-#: :data:`_DEFAULT_COMPILE_S`.  ``_node_score`` is compiled once per process, by the first kernel
-#: that calls it (``angle_choose`` in a default run: 2.1 s with it, ``compass`` then 0.7 s); each
-#: figure here counts it, so an estimate over several kernels is on the safe side.
-#: ``_cell_area_range`` (:func:`area_limits`) is a mesh-wide loop, not split per node (hence private).
-COMPILE_S = {"angle_choose": 2.2, "angle_optimize": 1.5, "compass": 1.5, "score": 0.7, "ring_mean": 0.3,
-             "angle_target": 0.6, "_cell_area_range": 0.2}
+#: Compile CPU time of each kernel's own code, s: a cold cache, one kernel per fresh process on the
+#: 2-core VM (``time.process_time``, numba's import excluded; 2026-12-02, start commit 86b70ea:
+#: angle_choose 4.15, compass 2.57, score 1.80, ring_mean 0.71, _cell_area_range 0.67,
+#: angle_target 0.90 s), less what every kernel of a process shares: numba's first compile in a
+#: process (:data:`_FIRST_COMPILE_S`) and the called helpers (:data:`_SHARED_S`), which compile
+#: once per process.  Only for the estimate that :func:`compile_estimate` gives before a run;
+#: unknown kernels count :data:`_DEFAULT_COMPILE_S`.  ``angle_choose``'s figure holds its own
+#: helper ``_node_score`` (0.5 s).  ``_cell_area_range`` (:func:`area_limits`) is a mesh-wide loop,
+#: not split per node (hence private).  The default ``angle`` kernels in one process measured
+#: 6.7 s (7.3 s with ``score``); the estimate for them is 7.1 s.
+COMPILE_S = {"angle_choose": 3.0, "angle_optimize": 1.5, "compass": 1.5, "score": 0.7, "ring_mean": 0.4, "angle_target": 0.6,
+             "_cell_area_range": 0.4}
 _DEFAULT_COMPILE_S = 2.0
+#: numba's first compile in a process (its own set-up), s: paid once, by whichever kernel is first
+_FIRST_COMPILE_S = 0.3
+#: called (not inlined) helpers and the kernels that call them: compiled once per process, s
+_SHARED_S = {"_node_score_rows": (0.8, ("angle_choose", "angle_optimize", "compass", "score"))}
 #: The kernels a method's default run calls (for :func:`compile_estimate`; a hint, not a contract).
 METHOD_KERNELS = {
     "angle": ("angle_choose", "angle_optimize", "_cell_area_range"),
@@ -409,4 +417,8 @@ def compile_estimate(method: str | None = None) -> float:
     """Seconds the kernels of ``method`` (default: all) will take to compile in this process, about
     (0.0 when they are all cached or compiled already); from :data:`COMPILE_S`."""
     names = METHOD_KERNELS.get(method, tuple(COMPILE_S)) if method else tuple(COMPILE_S)
-    return sum(COMPILE_S.get(n, _DEFAULT_COMPILE_S) for n in cold_kernels(names))
+    cold = cold_kernels(names)
+    if not cold:
+        return 0.0
+    shared = sum(s for s, users in _SHARED_S.values() if set(users) & set(cold))
+    return _FIRST_COMPILE_S + shared + sum(COMPILE_S.get(n, _DEFAULT_COMPILE_S) for n in cold)
