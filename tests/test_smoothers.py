@@ -690,3 +690,22 @@ def test_patch_moves_repair_the_trapped_valence3_sliver():
     assert without["min_angle"] < 19.0
     assert with_["min_angle"] > 20.0
     assert with_["inverted"] == 0 and with_["nonconvex_quads"] == 0
+
+
+@pytest.mark.parametrize("below", [20.0, 30.0, 45.0])
+def test_patch_screening_keeps_every_cell_below_the_threshold(below):
+    """Stage 5 computes the exact quality only of the cells a cheap test keeps: that test must keep every
+    cell below ``below`` (and an inverted one), and the compiled test must keep the same cells."""
+    from anglesmooth.generate import random_delaunay, structured_quads
+    from anglesmooth.smoothers._patch import _maybe_below, cell_quality
+
+    rng = np.random.default_rng(7)
+    for cells, pts in ((random_delaunay(3000, seed=2).triangles, random_delaunay(3000, seed=2).points[:, :2]),
+                       (structured_quads(30, 30).quads, structured_quads(30, 30).points[:, :2])):
+        pts = np.array(pts, float) + rng.normal(scale=0.3 * np.sqrt(np.ptp(pts[:, 0]) * np.ptp(pts[:, 1]) / pts.shape[0]), size=pts.shape)  # some quads non-convex or inverted
+        want = np.flatnonzero(cell_quality(pts, cells) < np.radians(below))
+        got = _maybe_below(pts, cells, below)
+        assert want.size and np.isin(want, got).all()
+        assert got.size < cells.shape[0]  # it does screen
+        fast = _maybe_below(pts, cells, below, fast=True)
+        assert np.array_equal(fast, got)

@@ -45,6 +45,7 @@ import numpy as np
 
 from ..topology import Topology
 from ._floors import Floors
+from . import _fast
 
 __all__ = ["patch_moves"]
 
@@ -73,6 +74,17 @@ def _csr(topo: Topology):
     return hit
 
 
+def _loc_of(topo: Topology) -> np.ndarray:
+    """(N,) position of every free node in ``topo.free_nodes`` (garbage at fixed nodes); cached."""
+    key = ("patch-loc-of",)
+    hit = topo._cache.get(key)
+    if hit is None:
+        hit = np.zeros(topo.n_points, np.intp)
+        hit[topo.free_nodes] = np.arange(topo.n_free)
+        topo._cache[key] = hit
+    return hit
+
+
 def cell_quality(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Per cell (m, k), the smallest corner quality in radians (quads: ``min(a, pi - a)``); -1 if invalid."""
     p = points[cells]
@@ -83,6 +95,38 @@ def cell_quality(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     if cells.shape[1] == 4:
         th = np.minimum(th, np.pi - th)
     return np.where((cr > 0).all(axis=1), th.min(axis=1), -1.0)
+
+
+def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool = False) -> np.ndarray:
+    """Ids (ascending) of a superset of the cells whose :func:`cell_quality` is below ``below`` degrees.
+
+    A corner of angle a in (0, 180) has min(a, 180 - a) < b exactly when its cross product is below
+    tan(b) times the absolute dot product; the test is padded so that round-off never drops a cell
+    (the exact quality then decides), and an invalid corner (cross <= 0) always counts.  Sqrt- and
+    arctan-free, on a few columns at a time.
+    """
+    m, k = cells.shape
+    if m == 0 or below <= 0.0:
+        return np.zeros(0, np.intp)
+    t = np.tan(np.radians(min(below, 89.0))) * (1.0 + 1e-6)
+    if fast and below < 89.0:  # the same test, compiled (``fast``: the mesh runs on the compiled kernels)
+        from ._patchkernels import maybe_below
+
+        return np.flatnonzero(maybe_below(np.ascontiguousarray(points[:, :2]), cells, t))
+    x, y = points[:, 0], points[:, 1]
+    hit = np.zeros(m, bool)
+    for c in range(k):
+        a, b, d = cells[:, c], cells[:, (c + 1) % k], cells[:, (c - 1) % k]
+        ux, uy = x[b] - x[a], y[b] - y[a]
+        wx, wy = x[d] - x[a], y[d] - y[a]
+        cr = ux * wy - uy * wx
+        dot = np.abs(ux * wx + uy * wy)
+        dot *= t
+        dot += 1e-300
+        hit |= cr < dot
+    if below >= 89.0:
+        hit[:] = True
+    return np.flatnonzero(hit)
 
 
 def _blocked(topo: Topology, floors: Floors | None) -> np.ndarray:
@@ -139,13 +183,14 @@ class _Patch:
         # the two edges at the node may not go below them (see _floors.input_floors)
         self.floor_rows = []
         if floors is not None and floors.active:
-            inv = np.empty(topo.n_points, np.intp)
-            inv[topo.free_nodes] = np.arange(topo.n_free)
-            locs = inv[nodes]
+            locs = _loc_of(topo)[nodes]
             for table, verts, fa, f1, f2 in ((topo.tri_loc, topo.tri_verts, floors.t_area2, floors.t_e1, floors.t_e2),
                                              (topo.quad_loc, topo.quad_verts, floors.q_area2, floors.q_e1, floors.q_e3)):
-                rows = np.concatenate([np.arange(np.searchsorted(table, lc, "left"), np.searchsorted(table, lc, "right"))
-                                       for lc in locs])
+                # the needles in the table's own type: otherwise numpy converts the whole table on every call
+                lc = locs.astype(table.dtype)
+                lo, hi = np.searchsorted(table, lc, "left"), np.searchsorted(table, lc, "right")
+                rows = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())]
+                                      + [np.zeros(0, np.intp)])
                 rows = rows[fa[rows] > 0]
                 if rows.size:
                     vv = verts[rows]
@@ -294,13 +339,18 @@ def patch_moves(
     """The points with the patches of the worst cells moved (see the module docstring)."""
     P = np.asarray(points, dtype=np.float64)
     nt = topo.n_tri
-    qual = np.concatenate([cell_quality(P, topo.tri), cell_quality(P, topo.quad)])
     blocked = _blocked(topo, floors)
     allc = [topo.tri, topo.quad]
-    cand = np.flatnonzero(qual < np.radians(below))
+    # the exact quality (arctan2) only of the cells a cheap test cannot clear (1M triangles: the
+    # exact quality of every cell was most of a pass); the same cells, values and order as from all
+    fast = _fast.active(topo)
+    cand = np.concatenate([_maybe_below(P, topo.tri, below, fast), nt + _maybe_below(P, topo.quad, below, fast)])
+    qual = np.concatenate([cell_quality(P, topo.tri[cand[cand < nt]]), cell_quality(P, topo.quad[cand[cand >= nt] - nt])])
+    keep = qual < np.radians(below)
+    cand, qual = cand[keep], qual[keep]
     if not cand.size:
         return P
-    cand = cand[np.argsort(qual[cand], kind="stable")]
+    cand = cand[np.argsort(qual, kind="stable")]
     offs, cids = _csr(topo)
     used_cells = np.zeros(nt + topo.n_quad, bool)
     out = P.copy()
