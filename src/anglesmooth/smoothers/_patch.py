@@ -112,8 +112,10 @@ def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool
     m, k = cells.shape
     if m == 0 or below <= 0.0:
         return np.zeros(0, np.intp)
-    t = np.tan(np.radians(min(below, 89.0))) * (1.0 + 1e-6)
-    if fast and below < 89.0:  # the same test, compiled (``fast``: the mesh runs on the compiled kernels)
+    if below >= 89.0:  # (almost) every cell: no screen
+        return np.arange(m)
+    t = np.tan(np.radians(below)) * (1.0 + 1e-6)
+    if fast:  # the same test, compiled (``fast``: the mesh runs on the compiled kernels)
         from ._patchkernels import maybe_below
 
         return np.flatnonzero(maybe_below(np.ascontiguousarray(points[:, :2]), cells, t))
@@ -128,8 +130,6 @@ def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool
         dot *= t
         dot += 1e-300
         hit |= cr < dot
-    if below >= 89.0:
-        hit[:] = True
     return np.flatnonzero(hit)
 
 
@@ -160,6 +160,19 @@ def _area2(c):
         c[..., 3, 0] - c[..., 1, 0])
 
 
+def _slots(nodes: np.ndarray):
+    """A function giving, for an array of node ids, each one's position in ``nodes`` (unique), -1 if absent."""
+    order = np.argsort(nodes, kind="stable")
+    ranked = nodes[order]
+
+    def slot(a):
+        a = np.asarray(a)
+        pos = np.minimum(np.searchsorted(ranked, a), max(ranked.shape[0] - 1, 0))
+        return np.where(ranked[pos] == a, order[pos], -1) if ranked.size else np.full(a.shape, -1)
+
+    return slot
+
+
 class _Patch:
     """One patch: its moving nodes and the corners of every cell incident to them."""
 
@@ -168,7 +181,7 @@ class _Patch:
         self.nodes = nodes
         tri = topo.tri[cell_ids[cell_ids < nt]]
         quad = topo.quad[cell_ids[cell_ids >= nt] - nt]
-        slot = {int(v): i for i, v in enumerate(nodes)}
+        slot = _slots(nodes)
         cv, cn, cp, sq = [], [], [], []
         for cells in (tri, quad):
             k = cells.shape[1]
@@ -180,9 +193,9 @@ class _Patch:
         self.cv, self.cn, self.cp = (np.concatenate(a) for a in (cv, cn, cp))
         self.quad = np.concatenate(sq)
         self.P = points
-        self.cells = [(c, np.array([[slot.get(int(v), -1) for v in r] for r in c]).reshape(c.shape))
+        self.cells = [(c, slot(c))
                       for c in (tri, quad) if c.shape[0]]
-        self.s = [np.array([slot.get(int(v), -1) for v in a]) for a in (self.cv, self.cn, self.cp)]
+        self.s = [slot(a) for a in (self.cv, self.cn, self.cp)]
         # the input floors of the moving nodes' incidence rows (node first, ccw): twice the area and
         # the two edges at the node may not go below them (see _floors.input_floors)
         self.floor_rows = []
@@ -198,7 +211,7 @@ class _Patch:
                 rows = rows[fa[rows] > 0]
                 if rows.size:
                     vv = verts[rows]
-                    sl = np.array([[slot.get(int(v), -1) for v in r] for r in vv])
+                    sl = slot(vv)
                     self.floor_rows.append((vv, sl, fa[rows], f1[rows], f2[rows]))
 
     def floors_ok(self, X):
