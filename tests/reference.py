@@ -131,7 +131,38 @@ def _with(p, i, x):
     return q
 
 
-def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20.0, accept_above_quad=20.0):
+def reference_keep(points, topo, keep_quad=30.0, keep_tri=40.0, keep_rect=15.0, keep_stretch=1.5, quads_too=False):
+    """Per free node (``topo.free_nodes`` order): the default ``angle``'s well-shaped-input rule applies.
+
+    A node with a triangle whose cells are all well shaped (triangle corners >= ``keep_tri``
+    deg, quad corners within ``keep_quad`` deg of a right angle) or that has a near-rectangular
+    (corners within ``keep_rect`` deg) quad whose longest edge is >= ``keep_stretch`` x its shortest;
+    only a node with a triangle or a corner of a quad with such a node (``quads_too``: every node, the
+    former rule).
+    """
+    p = [list(map(float, x)) for x in points]
+    inc = incident(cells_of(topo), len(p))
+    out = []
+    for i in map(int, topo.free_nodes):
+        has_tri = any(any(len(d) == 3 for d in inc[v]) for c in inc[i] for v in c)
+        good, stretched = True, False
+        for c in inc[i]:
+            k = len(c)
+            ang = [corner_angle(p, c[m], c[m - 1], c[(m + 1) % k]) for m in range(k)]
+            valid = all(a is not None for a in ang)
+            if k == 3:
+                good &= valid and min(ang) >= math.radians(keep_tri)
+            else:
+                dev = max(abs(a - math.pi / 2) for a in ang) if valid else math.inf
+                good &= dev <= math.radians(keep_quad)
+                e = [math.dist(p[c[m]], p[c[(m + 1) % 4]]) for m in range(4)]
+                stretched |= dev <= math.radians(keep_rect) and max(e) >= keep_stretch * min(e)
+        out.append((has_tri or quads_too) and (good or stretched))
+    return np.array(out, dtype=bool)
+
+
+def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20.0, accept_above_quad=20.0,
+                   keep=None):
     """One pass of ``method`` in the topology's colour order, node by node.
 
     For ``angle`` with ``guard`` this is the robust candidate selection (the
@@ -142,12 +173,15 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
     the best of five; where every candidate but staying is invalid, the
     guarded Laplacian move)
     without the local optimization of the worst nodes (``opt_iterations=0``).
+    ``keep`` (per free node, bool; see :func:`reference_keep`): those nodes take the angle position
+    only where it is also no worse than staying, and otherwise always the best of five.
     """
     p = [list(map(float, x)) for x in points]
     cells = cells_of(topo)
     inc = incident(cells, len(p))
     nb = neighbours(cells, len(p))
-    for i in map(int, topo.free_nodes):
+    for f, i in enumerate(map(int, topo.free_nodes)):
+        kp = keep is not None and bool(keep[f])
         cur = p[i]
         lap = laplacian_pos(p, i, nb)
         if method == "laplacian":
@@ -180,7 +214,8 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
                 continue
             q_ang = local_min_angle(_with(p, i, ang), inc[i])
             has_quad = any(len(c) == 4 for c in inc[i])
-            if q_ang >= math.radians(accept_above_quad if has_quad else accept_above):
+            if q_ang >= math.radians(accept_above_quad if has_quad else accept_above) and (
+                    not kp or q_ang >= local_min_angle(p, inc[i])):
                 p[i] = ang
                 continue
             cands = [ang, lap, [(ang[0] + lap[0]) / 2, (ang[1] + lap[1]) / 2], [(ang[0] + cur[0]) / 2, (ang[1] + cur[1]) / 2], cur]
@@ -188,7 +223,7 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
             p[i] = cands[int(np.argmax(scores))]
             # the candidate nearest the angle position among those good enough (first on ties)
             near = [k for k in range(1, 5) if scores[k] >= math.radians(accept_above_quad if has_quad else accept_above)]
-            if near:
+            if near and not kp:
                 dist = [(cands[k][0] - ang[0]) ** 2 + (cands[k][1] - ang[1]) ** 2 for k in near]
                 p[i] = cands[near[int(np.argmin(dist))]]
             if all(s < 0 for s in scores[:4]) and scores[4] >= 0:
