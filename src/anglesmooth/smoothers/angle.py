@@ -150,7 +150,10 @@ The robust default (``guard=True``)
     deg; at every node: triangles 24.85 -> 24.45, graded 20.4 -> 19.8; no
     growth: 14.2 / 11.9 / 5.7 at 29.5 deg; a cap of 1.5 / 2 / 3 x the mean
     cell area at quad-only nodes: 14.0 / 13.1 / 11.8 on f1 at 30.4 / 31.6 /
-    32.5 deg; resume off, ``opt_below_quad`` 45, 6 steps: 12.6, 13.0, 12.2.
+    32.5 deg; resume off, ``opt_below_quad`` 45 / 40, 6 / 3 steps,
+    ``opt_fraction`` 0.03 / 0.02, 4 / 16 patches, ``resume_above`` 30 / 0:
+    12.6, 13.0 / 12.9, 12.2 / 13.1, 12.7 / 13.5, 12.2 / 12.4, 11.6 / 11.4
+    on f1 (31.0-32.5 deg; the 13.1 and 13.5 at 31.4 and 31.0).
     Without stages 4 and 5 as well the guarded choice is the literal rule's
     (14.4 / 12.3 / 5.8) at 14.5 deg: the rest of the gap is the optimization.
 
