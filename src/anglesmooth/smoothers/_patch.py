@@ -160,113 +160,127 @@ def _area2(c):
         c[..., 3, 0] - c[..., 1, 0])
 
 
-def _slots(nodes: np.ndarray):
-    """A function giving, for an array of node ids, each one's position in ``nodes`` (unique), -1 if absent."""
-    order = np.argsort(nodes, kind="stable")
-    ranked = nodes[order]
-
-    def slot(a):
-        a = np.asarray(a)
-        pos = np.minimum(np.searchsorted(ranked, a), max(ranked.shape[0] - 1, 0))
-        return np.where(ranked[pos] == a, order[pos], -1) if ranked.size else np.full(a.shape, -1)
-
-    return slot
-
-
 class _Patch:
-    """One patch: its moving nodes and the corners of every cell incident to them."""
+    """One patch: its moving nodes and the corners of every cell incident to them, as local indices.
+
+    The local nodes are the ``n`` moving nodes (slots 0..n-1, the order of ``nodes``) then the other
+    corners of the patch's cells (their positions ``ext`` never change), so that every evaluation is
+    a gather from one (K, n + m, 2) array.  The corners are the triangles' corners 0, 1, 2 then the
+    quads' 0..3 (corner 0 of triangle i is corner i: its cross product is twice the triangle's area,
+    the same operations as :func:`_area2`); an input floor row (a moving node's rotated cell) is the
+    corner at that node: its area is the corner's cross product (triangles) or the quad's (the
+    diagonal formula gives the same bits in every rotation), its edges the corner's u and w.
+    """
 
     def __init__(self, points, topo, nodes, cell_ids, floors=None):
         nt = topo.n_tri
         self.nodes = nodes
+        n = nodes.shape[0]
         tri = topo.tri[cell_ids[cell_ids < nt]]
         quad = topo.quad[cell_ids[cell_ids >= nt] - nt]
-        slot = _slots(nodes)
-        cv, cn, cp, sq = [], [], [], []
+        allv = np.concatenate([tri.ravel(), quad.ravel()]).astype(np.intp)
+        ext = np.setdiff1d(allv, nodes)
+        local = np.concatenate([nodes, ext])
+        order = np.argsort(local, kind="stable")
+        ranked = local[order]
+
+        def slot(a):
+            return order[np.searchsorted(ranked, a)]
+
+        cv, cn, cp = [], [], []
         for cells in (tri, quad):
             k = cells.shape[1]
             for m in range(k):
                 cv.append(cells[:, m])
                 cn.append(cells[:, (m + 1) % k])
                 cp.append(cells[:, m - 1])
-                sq.append(np.full(cells.shape[0], k == 4))
-        self.cv, self.cn, self.cp = (np.concatenate(a) for a in (cv, cn, cp))
-        self.quad = np.concatenate(sq)
-        self.P = points
-        self.cells = [(c, slot(c))
-                      for c in (tri, quad) if c.shape[0]]
-        self.s = [slot(a) for a in (self.cv, self.cn, self.cp)]
+        self.lv, self.ln, self.lp = (slot(np.concatenate(a).astype(np.intp)) for a in (cv, cn, cp))
+        self.n, self.ntri, self.nq = n, tri.shape[0], quad.shape[0]
+        self.quad = np.arange(self.lv.shape[0]) >= 3 * self.ntri
+        self.any_quad = bool(self.nq)
+        self.lq = slot(quad.astype(np.intp)) if self.nq else None
+        self.ext = np.asarray(points, np.float64)[ext]
         # the input floors of the moving nodes' incidence rows (node first, ccw): twice the area and
         # the two edges at the node may not go below them (see _floors.input_floors)
-        self.floor_rows = []
+        self.floor = None
         if floors is not None and floors.active:
+            L = local.shape[0]
+            key = (self.lv * L + self.ln) * L + self.lp
+            korder = np.argsort(key, kind="stable")
+            fc, fq, fa, f1, f2 = [], [], [], [], []
             locs = _loc_of(topo)[nodes]
-            for table, verts, fa, f1, f2 in ((topo.tri_loc, topo.tri_verts, floors.t_area2, floors.t_e1, floors.t_e2),
+            for table, verts, ta, t1, t2 in ((topo.tri_loc, topo.tri_verts, floors.t_area2, floors.t_e1, floors.t_e2),
                                              (topo.quad_loc, topo.quad_verts, floors.q_area2, floors.q_e1, floors.q_e3)):
                 # the needles in the table's own type: otherwise numpy converts the whole table on every call
                 lc = locs.astype(table.dtype)
                 lo, hi = np.searchsorted(table, lc, "left"), np.searchsorted(table, lc, "right")
                 rows = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())]
                                       + [np.zeros(0, np.intp)])
-                rows = rows[fa[rows] > 0]
+                rows = rows[ta[rows] > 0]
                 if rows.size:
-                    vv = verts[rows]
-                    sl = slot(vv)
-                    self.floor_rows.append((vv, sl, fa[rows], f1[rows], f2[rows]))
+                    vv = slot(verts[rows].astype(np.intp))
+                    want = (vv[:, 0] * L + vv[:, 1]) * L + vv[:, -1]
+                    c = korder[np.searchsorted(key, want, sorter=korder)]
+                    fc.append(c)
+                    fq.append(c >= 3 * self.ntri)
+                    fa.append(ta[rows]), f1.append(t1[rows]), f2.append(t2[rows])
+            if fc:
+                fc, fq = np.concatenate(fc), np.concatenate(fq)
+                # a quad corner's cell: the quads' corner m of quad j is 3 ntri + m nq + j
+                qc = (fc - 3 * self.ntri) % max(self.nq, 1)
+                self.floor = (fc, fq, np.where(fq, qc, 0), np.concatenate(fa), np.concatenate(f1), np.concatenate(f2))
 
-    def floors_ok(self, X):
-        """(K,) bool: every floored row of the moving nodes keeps its floors at positions X (K, n, 2)."""
-        ok = np.ones(X.shape[0], bool)
-        for vv, sl, fa, f1, f2 in self.floor_rows:
-            c = self._cell_xy(X, vv, sl)
-            a2 = _area2(c)
-            e1 = np.hypot(*(c[..., 1, :] - c[..., 0, :]).transpose(2, 0, 1))
-            e2 = np.hypot(*(c[..., -1, :] - c[..., 0, :]).transpose(2, 0, 1))
-            ok &= ((a2 >= fa) & (e1 >= f1) & (e2 >= f2)).all(axis=1)
-        return ok
+    def positions(self, X):
+        """(K, n + m, 2) local positions: the moving nodes at X (K, n, 2), the others where they are."""
+        Y = np.empty((X.shape[0], X.shape[1] + self.ext.shape[0], 2))
+        Y[:, : self.n] = X
+        Y[:, self.n:] = self.ext
+        return Y
 
-    def _xy(self, X, which):
-        """Coordinates (K, C, 2) of corner role ``which`` (0: vertex, 1: next, 2: previous)."""
-        ids, s = (self.cv, self.cn, self.cp)[which], self.s[which]
-        out = np.broadcast_to(self.P[ids], (X.shape[0],) + ids.shape + (2,)).copy()
-        m = s >= 0
-        out[:, m] = X[:, s[m]]
-        return out
-
-    def corners(self, X):
-        """(quality (K, C), cross products (K, C), u, w) at the moving nodes' positions X (K, n, 2)."""
-        v = self._xy(X, 0)
-        u = self._xy(X, 1) - v
-        w = self._xy(X, 2) - v
+    def corners(self, Y):
+        """(quality, angle, cross product, u, w) of every corner (K, C) at local positions Y."""
+        v = Y[:, self.lv]
+        u = Y[:, self.ln] - v
+        w = Y[:, self.lp] - v
         cr = u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0]
         th = np.arctan2(cr, u[..., 0] * w[..., 0] + u[..., 1] * w[..., 1])
-        return np.where(self.quad, np.minimum(th, np.pi - th), th), th, cr, u, w
+        q = np.where(self.quad, np.minimum(th, np.pi - th), th) if self.any_quad else th
+        return q, th, cr, u, w
 
-    def _cell_xy(self, X, vv, sl):
-        c = np.broadcast_to(self.P[vv], (X.shape[0],) + vv.shape + (2,)).copy()
-        m = sl >= 0
-        c[:, m] = X[:, sl[m]]
-        return c
-
-    def areas(self, X):
-        """(K, cells) signed areas (the shoelace of :func:`..topology.signed_areas`) at positions X."""
-        out = []
-        for vv, sl in self.cells:
-            out.append(0.5 * _area2(self._cell_xy(X, vv, sl)))
-        return np.concatenate(out, axis=1)
+    def score(self, Y, lo, hi):
+        """(K,) the minimum corner quality at Y, -inf where a cell is invalid or a limit broken; and the corners."""
+        q, th, cr, u, w = cs = self.corners(Y)
+        tri2 = cr[:, : self.ntri]
+        ok = (cr > 0).all(axis=1)
+        if self.any_quad:
+            q2 = _area2(Y[:, self.lq])
+            a = np.concatenate([0.5 * tri2, 0.5 * q2], axis=1)
+        else:
+            a = 0.5 * tri2
+        ok &= (a.min(axis=1) >= lo) & (a.max(axis=1) <= hi)
+        if self.floor is not None:
+            fc, fq, qc, fa, f1, f2 = self.floor
+            a2 = cr[:, fc]
+            if self.any_quad:
+                a2 = np.where(fq, q2[:, qc], a2)
+            e1 = np.hypot(u[:, fc, 0], u[:, fc, 1])
+            e2 = np.hypot(w[:, fc, 0], w[:, fc, 1])
+            ok &= ((a2 >= fa) & (e1 >= f1) & (e2 >= f2)).all(axis=1)
+        return np.where(ok, q.min(axis=1), -np.inf), cs
 
     def gradients(self, sel, th, u, w):
         """(c, n, 2): gradient of the quality of the corners ``sel`` (at angles th, edges u, w) with
         respect to the moving nodes."""
-        n = self.nodes.shape[0]
         sgn = np.where(self.quad[sel] & (th > np.pi / 2), -1.0, 1.0)[:, None]
         gp = np.stack([-w[:, 1], w[:, 0]], 1) / (w * w).sum(1)[:, None] * sgn  # d angle / d previous
         gn = np.stack([u[:, 1], -u[:, 0]], 1) / (u * u).sum(1)[:, None] * sgn  # d angle / d next
-        G = np.zeros((th.shape[0], n + 1, 2))  # slot n: the non-moving nodes (dropped)
+        G = np.zeros((th.shape[0], self.ext.shape[0] + self.n, 2))  # slots n..: the non-moving nodes (dropped)
         c = np.arange(th.shape[0])
-        for g, s in ((gp, self.s[2][sel]), (gn, self.s[1][sel]), (-(gp + gn), self.s[0][sel])):
-            np.add.at(G, (c, np.where(s >= 0, s, n)), g)
-        return G[:, :n]
+        # a corner's three nodes are distinct: one value per entry, as np.add.at would sum it
+        G[c, self.lp[sel]] = gp
+        G[c, self.ln[sel]] = gn
+        G[c, self.lv[sel]] = -(gp + gn)
+        return G[:, : self.n]
 
 
 def _min_norm(G: np.ndarray, iterations: int = 50) -> np.ndarray:
@@ -293,8 +307,11 @@ def _min_norm(G: np.ndarray, iterations: int = 50) -> np.ndarray:
 
 def _ascend(patch: _Patch, X, iterations, eps, area_band, area_limits):
     """The patch's nodes after ``iterations`` ascent steps (see the module docstring)."""
-    q, th, cr, u, w = patch.corners(X[None])
-    ar = patch.areas(X[None])[0]
+    Y = patch.positions(X[None])
+    tri2 = patch.corners(Y)[2][0, : patch.ntri]
+    ar = 0.5 * tri2
+    if patch.any_quad:
+        ar = np.concatenate([ar, 0.5 * _area2(Y[0, patch.lq])])
     lo0, hi0 = float(ar.min()), float(ar.max())
     lo, hi = -np.inf, np.inf
     if area_band is not None:
@@ -302,23 +319,18 @@ def _ascend(patch: _Patch, X, iterations, eps, area_band, area_limits):
         if area_limits is not None:
             lo, hi = max(lo, min(area_limits[0], lo0)), min(hi, max(area_limits[1], hi0))
 
-    def score(Xs):
-        q, th, cr, u, w = patch.corners(Xs)
-        a = patch.areas(Xs)
-        ok = (cr > 0).all(axis=1) & (a.min(axis=1) >= lo) & (a.max(axis=1) <= hi) & patch.floors_ok(Xs)
-        return np.where(ok, q.min(axis=1), -np.inf)
-
-    f0 = float(score(X[None])[0])
+    f, (q, th, cr, u, w) = patch.score(Y, lo, hi)
+    f0 = float(f[0])
     if not np.isfinite(f0):
         return X, f0
-    h = float(np.mean(np.sqrt((u[0] * u[0]).sum(1))))
+    q, th, u, w = q[0], th[0], u[0], w[0]
+    h = float(np.mean(np.sqrt((u * u).sum(1))))
     t = 0.1 * h
     halvings = 0.5 ** np.arange(8)
+    n = patch.n
     for _ in range(iterations):
-        q, th, cr, u, w = patch.corners(X[None])
-        q, th = q[0], th[0]
         active = q <= q.min() + eps
-        G = patch.gradients(active, th[active], u[0][active], w[0][active]).reshape(int(active.sum()), -1)
+        G = patch.gradients(active, th[active], u[active], w[active]).reshape(int(active.sum()), -1)
         d = _min_norm(G)
         nd = float(np.sqrt(d @ d))
         if nd < 1e-12:
@@ -328,10 +340,15 @@ def _ascend(patch: _Patch, X, iterations, eps, area_band, area_limits):
             continue
         steps = t * halvings
         Xs = X[None] + steps[:, None, None] * (d / nd).reshape(-1, 2)[None]
-        fs = score(Xs)
+        Ys = np.empty((8, Y.shape[1], 2))
+        Ys[:, :n] = Xs
+        Ys[:, n:] = patch.ext
+        fs, (qs, ths, _, us, ws) = patch.score(Ys, lo, hi)
         k = np.flatnonzero(fs > f0 + _GAIN)  # a real gain: round-off never decides a step
         if k.size:
-            X, f0, t = Xs[k[0]], float(fs[k[0]]), min(2.0 * steps[k[0]], 0.5 * h)
+            k = k[0]
+            X, f0, t = Xs[k], float(fs[k]), min(2.0 * steps[k], 0.5 * h)
+            q, th, u, w = qs[k], ths[k], us[k], ws[k]
         else:
             eps *= 0.5
             t = float(steps[-1])
