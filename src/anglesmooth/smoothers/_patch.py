@@ -59,7 +59,8 @@ BLOCK_KEEP = False
 BLOCK_FLOORED = False
 _GAIN = 1e-10  # radians
 _TIE = 1e-9
-_GAP = 0.0  # relative Frank-Wolfe gap at which the min-norm search stops (1e-3: paper-style mixed 25.54 -> 24.83 deg)
+_WOLFE_TOL = 1e-12  # the min-norm point is found when no row is below it along itself by this x the largest |row|^2
+_CHUNK = 1 << 15  # cells per chunk of the numpy screen (its temporaries stay in the caches)
 _EPS_MIN = 1e-4  # radians: the active-set tolerance halves down to this, then the ascent stops
 
 
@@ -119,17 +120,25 @@ def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool
         from ._patchkernels import maybe_below
 
         return np.flatnonzero(maybe_below(np.ascontiguousarray(points[:, :2]), cells, t))
-    x, y = points[:, 0], points[:, 1]
+    # the edges e_c = p_{c+1} - p_c once (the corner's u is e_c, its w is -e_{c-1} exactly), so that
+    # cross = uy ex - ux ey and |dot| = |ux ex + uy ey| with e = e_{c-1}: the same bits as from u and w
+    z = np.ascontiguousarray(points[:, :2], dtype=np.float64).view(np.complex128).ravel()
     hit = np.zeros(m, bool)
-    for c in range(k):
-        a, b, d = cells[:, c], cells[:, (c + 1) % k], cells[:, (c - 1) % k]
-        ux, uy = x[b] - x[a], y[b] - y[a]
-        wx, wy = x[d] - x[a], y[d] - y[a]
-        cr = ux * wy - uy * wx
-        dot = np.abs(ux * wx + uy * wy)
-        dot *= t
-        dot += 1e-300
-        hit |= cr < dot
+    for s0 in range(0, m, _CHUNK):
+        c = cells[s0:s0 + _CHUNK].T.astype(np.intp)
+        zc = [z[c[i]] for i in range(k)]
+        e = [zc[(i + 1) % k] - zc[i] for i in range(k)]
+        ex, ey = [x.real.copy() for x in e], [x.imag.copy() for x in e]
+        h = hit[s0:s0 + _CHUNK]
+        for i in range(k):
+            cr = ey[i] * ex[i - 1]
+            cr -= ex[i] * ey[i - 1]
+            dot = ex[i] * ex[i - 1]
+            dot += ey[i] * ey[i - 1]
+            np.abs(dot, out=dot)
+            dot *= t
+            dot += 1e-300
+            h |= cr < dot
     return np.flatnonzero(hit)
 
 
@@ -195,6 +204,7 @@ class _Patch:
                 cn.append(cells[:, (m + 1) % k])
                 cp.append(cells[:, m - 1])
         self.lv, self.ln, self.lp = (slot(np.concatenate(a).astype(np.intp)) for a in (cv, cn, cp))
+        self.l3 = np.stack([self.lp, self.ln, self.lv], axis=1)
         self.n, self.ntri, self.nq = n, tri.shape[0], quad.shape[0]
         self.quad = np.arange(self.lv.shape[0]) >= 3 * self.ntri
         self.any_quad = bool(self.nq)
@@ -269,40 +279,92 @@ class _Patch:
         return np.where(ok, q.min(axis=1), -np.inf), cs
 
     def gradients(self, sel, th, u, w):
-        """(c, n, 2): gradient of the quality of the corners ``sel`` (at angles th, edges u, w) with
-        respect to the moving nodes."""
-        sgn = np.where(self.quad[sel] & (th > np.pi / 2), -1.0, 1.0)[:, None]
-        gp = np.stack([-w[:, 1], w[:, 0]], 1) / (w * w).sum(1)[:, None] * sgn  # d angle / d previous
-        gn = np.stack([u[:, 1], -u[:, 0]], 1) / (u * u).sum(1)[:, None] * sgn  # d angle / d next
-        G = np.zeros((th.shape[0], self.ext.shape[0] + self.n, 2))  # slots n..: the non-moving nodes (dropped)
-        c = np.arange(th.shape[0])
+        """(c, n, 2): gradient of the quality of the corners ``sel`` (indices; at angles th, edges u,
+        w) with respect to the moving nodes."""
+        a = sel.shape[0]
+        g = np.empty((a, 3, 2))  # d angle / d previous, next, vertex
+        g[:, 0, 0] = -w[:, 1]
+        g[:, 0, 1] = w[:, 0]
+        g[:, 1, 0] = u[:, 1]
+        g[:, 1, 1] = -u[:, 0]
+        g[:, 0] /= (w * w).sum(1)[:, None]
+        g[:, 1] /= (u * u).sum(1)[:, None]
+        if self.any_quad:
+            g[:, :2] *= np.where(self.quad[sel] & (th > np.pi / 2), -1.0, 1.0)[:, None, None]
+        np.add(g[:, 0], g[:, 1], out=g[:, 2])
+        np.negative(g[:, 2], out=g[:, 2])
+        G = np.zeros((a, self.ext.shape[0] + self.n, 2))  # slots n..: the non-moving nodes (dropped)
         # a corner's three nodes are distinct: one value per entry, as np.add.at would sum it
-        G[c, self.lp[sel]] = gp
-        G[c, self.ln[sel]] = gn
-        G[c, self.lv[sel]] = -(gp + gn)
+        G[np.arange(a)[:, None], self.l3[sel]] = g
         return G[:, : self.n]
 
 
-def _min_norm(G: np.ndarray, iterations: int = 50) -> np.ndarray:
-    """The min-norm point of the convex hull of the rows of G (a, d), by Frank-Wolfe steps."""
+try:  # np.linalg.solve's own kernel without its wrapper (a third of a small solve's time); NaN if singular
+    from numpy.linalg._umath_linalg import solve1 as _solve1
+
+    _solve = _solve1
+except ImportError:  # pragma: no cover - another numpy layout
+    def _solve(A, b):
+        try:
+            return np.linalg.solve(A, b)
+        except np.linalg.LinAlgError:
+            return np.full(b.shape, np.nan)
+
+
+def _min_norm(G: np.ndarray) -> np.ndarray:
+    """The min-norm point of the convex hull of the rows of G (a, d), exactly: Wolfe's algorithm.
+
+    A corral S of rows (affinely independent) holds the current point x = lam @ G[S] (lam > 0,
+    sum 1); a major cycle adds the row j that is most negative along x (x . G[j] < x . x, by more
+    than :data:`_WOLFE_TOL` times the largest squared row norm: otherwise x is the min-norm point)
+    and moves to the affine minimizer of the corral, a minor cycle drops the rows whose weight that
+    move would make non-positive (the segment stops where the first one reaches 0).  Everything on
+    the Gram matrix M = G G^T; the affine minimizer solves [[M_SS, 1], [1^T, 0]] [mu, nu] = [0, 1].
+    Ties by the first index.
+    """
     a = G.shape[0]
+    if a == 1:
+        return G[0].copy()
+    with np.errstate(all="ignore"):  # a singular corral system: NaN, handled below
+        return _wolfe(G, a)
+
+
+def _wolfe(G, a):
     M = G @ G.T
-    lam = np.full(a, 1.0 / a)
-    for _ in range(iterations):
-        g = M @ lam
-        if float(lam @ g) - float(g.min()) <= _GAP * float(lam @ g):  # Frank-Wolfe gap: near enough
+    B = np.ones((a + 1, a + 1))  # M bordered by ones: the corral's affine system is a submatrix
+    B[:a, :a] = M
+    B[a, a] = 0.0
+    rhs = np.zeros(a + 1)
+    rhs[-1] = 1.0
+    dg = np.diag(M)
+    tol = _WOLFE_TOL * float(dg.max())
+    S = [int(np.argmin(dg))]
+    lam = np.ones(1)
+    for _ in range(4 * a + 8):
+        g = M.take(S, 1) @ lam
+        j = int(np.argmin(g))
+        if float(lam @ g[S]) - float(g[j]) <= tol or j in S:
             break
-        j = int(np.flatnonzero(g <= g.min() + _TIE * np.abs(g).max())[0])  # ties: the first, whatever the round-off
-        d = -lam
-        d[j] += 1.0
-        den = float(d @ M @ d)
-        if den <= 0.0:
-            break
-        t = min(1.0, max(0.0, -float(lam @ M @ d) / den))
-        if t == 0.0:
-            break
-        lam = lam + t * d
-    return lam @ G
+        S.append(j)
+        lam = np.append(lam, 0.0)
+        for _ in range(len(S)):  # minor cycles: at most one row dropped each
+            s = len(S)
+            ix = S + [a]
+            mu = _solve(B.take(ix, 0).take(ix, 1), rhs[-s - 1:])[:s]
+            if not np.isfinite(mu).all():  # singular (round-off): stop where we are
+                return lam @ G[S]
+            if (mu > 0.0).all():
+                lam = mu
+                break
+            neg = np.flatnonzero(mu <= 0.0)
+            r = lam[neg] / (lam[neg] - mu[neg])
+            i = int(neg[np.argmin(r)])
+            lam = lam + float(r.min()) * (mu - lam)
+            lam[i] = 0.0
+            keep = lam > 0.0
+            S = [x for x, k in zip(S, keep.tolist()) if k]
+            lam = lam[keep]
+    return lam @ G[S]
 
 
 def _ascend(patch: _Patch, X, iterations, eps, area_band, area_limits):
@@ -328,11 +390,14 @@ def _ascend(patch: _Patch, X, iterations, eps, area_band, area_limits):
     t = 0.1 * h
     halvings = 0.5 ** np.arange(8)
     n = patch.n
+    last = None  # the active set whose direction (d, nd) is known at the current X
     for _ in range(iterations):
-        active = q <= q.min() + eps
-        G = patch.gradients(active, th[active], u[active], w[active]).reshape(int(active.sum()), -1)
-        d = _min_norm(G)
-        nd = float(np.sqrt(d @ d))
+        active = np.flatnonzero(q <= q.min() + eps)
+        if last is None or not np.array_equal(active, last):  # else: the same rows, the same direction
+            G = patch.gradients(active, th[active], u[active], w[active]).reshape(active.shape[0], -1)
+            d = _min_norm(G)
+            nd = float(np.sqrt(d @ d))
+            last = active
         if nd < 1e-12:
             eps *= 0.5
             if eps < _EPS_MIN:
@@ -349,6 +414,7 @@ def _ascend(patch: _Patch, X, iterations, eps, area_band, area_limits):
             k = k[0]
             X, f0, t = Xs[k], float(fs[k]), min(2.0 * steps[k], 0.5 * h)
             q, th, u, w = qs[k], ths[k], us[k], ws[k]
+            last = None
         else:
             eps *= 0.5
             t = float(steps[-1])

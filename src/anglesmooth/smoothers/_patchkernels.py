@@ -23,17 +23,18 @@ def maybe_below(pts, cells, t):
     """(m,) bool: some corner of the cell has cross < t * |dot| + 1e-300 (see ``_patch._maybe_below``)."""
     m, k = cells.shape
     out = np.zeros(m, np.bool_)
+    ex = np.empty(k)
+    ey = np.empty(k)
     for i in range(m):
-        for c in range(k):
+        for c in range(k):  # the edges e_c = p_{c+1} - p_c: u = e_c, w = -e_{c-1} (see ``_patch._maybe_below``)
             a = cells[i, c]
-            b = cells[i, (c + 1) % k]
-            d = cells[i, (c - 1 + k) % k]
-            ux = pts[b, 0] - pts[a, 0]
-            uy = pts[b, 1] - pts[a, 1]
-            wx = pts[d, 0] - pts[a, 0]
-            wy = pts[d, 1] - pts[a, 1]
-            cr = ux * wy - uy * wx
-            dot = abs(ux * wx + uy * wy) * t + 1e-300
+            b = cells[i, c + 1 if c + 1 < k else 0]
+            ex[c] = pts[b, 0] - pts[a, 0]
+            ey[c] = pts[b, 1] - pts[a, 1]
+        for c in range(k):
+            p = c - 1 if c > 0 else k - 1
+            cr = ey[c] * ex[p] - ex[c] * ey[p]
+            dot = abs(ex[c] * ex[p] + ey[c] * ey[p]) * t + 1e-300
             if cr < dot:
                 out[i] = True
                 break
