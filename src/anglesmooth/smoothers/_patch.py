@@ -91,15 +91,25 @@ def _loc_of(topo: Topology) -> np.ndarray:
 
 
 def cell_quality(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """Per cell (m, k), the smallest corner quality in radians (quads: ``min(a, pi - a)``); -1 if invalid."""
-    p = points[cells]
-    u = np.roll(p, -1, axis=1) - p
-    w = np.roll(p, 1, axis=1) - p
-    cr = u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0]
-    th = np.arctan2(cr, u[..., 0] * w[..., 0] + u[..., 1] * w[..., 1])
-    if cells.shape[1] == 4:
+    """Per cell (m, k), the smallest corner quality in radians (quads: ``min(a, pi - a)``); -1 if invalid.
+
+    Corner c: the angle from u = p_{c+1} - p_c to w = p_{c-1} - p_c, ``arctan2(u x w, u . w)``.
+    """
+    m, k = cells.shape
+    pts = np.asarray(points, dtype=np.float64)
+    z = np.ascontiguousarray(pts[:, :2]).view(np.complex128).ravel()
+    c = cells.T.astype(np.intp)
+    zc = [z[c[i]] for i in range(k)]
+    cr, dot = np.empty((k, m)), np.empty((k, m))
+    for i in range(k):
+        u, w = zc[(i + 1) % k] - zc[i], zc[i - 1] - zc[i]
+        ux, uy, wx, wy = u.real, u.imag, w.real, w.imag
+        np.subtract(ux * wy, uy * wx, out=cr[i])
+        np.add(ux * wx, uy * wy, out=dot[i])
+    th = np.arctan2(cr, dot)
+    if k == 4:
         th = np.minimum(th, np.pi - th)
-    return np.where((cr > 0).all(axis=1), th.min(axis=1), -1.0)
+    return np.where((cr > 0).all(axis=0), th.min(axis=0), -1.0)
 
 
 def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool = False) -> np.ndarray:
@@ -311,7 +321,7 @@ except ImportError:  # pragma: no cover - another numpy layout
             return np.full(b.shape, np.nan)
 
 
-def _min_norm(G: np.ndarray) -> np.ndarray:
+def _min_norm(G: np.ndarray, start=()) -> tuple[np.ndarray, list]:
     """The min-norm point of the convex hull of the rows of G (a, d), exactly: Wolfe's algorithm.
 
     A corral S of rows (affinely independent) holds the current point x = lam @ G[S] (lam > 0,
@@ -320,16 +330,19 @@ def _min_norm(G: np.ndarray) -> np.ndarray:
     and moves to the affine minimizer of the corral, a minor cycle drops the rows whose weight that
     move would make non-positive (the segment stops where the first one reaches 0).  Everything on
     the Gram matrix M = G G^T; the affine minimizer solves [[M_SS, 1], [1^T, 0]] [mu, nu] = [0, 1].
-    Ties by the first index.
+    Ties by the first index.  ``start``: rows to start from (the corral of the previous ascent step,
+    where they are still active), when their affine minimizer is inside their hull; else the
+    shortest row.  The min-norm point is unique, so the start only changes the round-off.
+    Returns the point and its corral.
     """
     a = G.shape[0]
     if a == 1:
-        return G[0].copy()
+        return G[0].copy(), [0]
     with np.errstate(all="ignore"):  # a singular corral system: NaN, handled below
-        return _wolfe(G, a)
+        return _wolfe(G, a, list(start))
 
 
-def _wolfe(G, a):
+def _wolfe(G, a, S):
     M = G @ G.T
     B = np.ones((a + 1, a + 1))  # M bordered by ones: the corral's affine system is a submatrix
     B[:a, :a] = M
@@ -338,8 +351,15 @@ def _wolfe(G, a):
     rhs[-1] = 1.0
     dg = np.diag(M)
     tol = _WOLFE_TOL * float(dg.max())
-    S = [int(np.argmin(dg))]
-    lam = np.ones(1)
+    mu = None
+    if len(S) > 1:
+        ix = S + [a]
+        mu = _solve(B.take(ix, 0).take(ix, 1), rhs[-len(S) - 1:])[:-1]
+    if mu is not None and np.isfinite(mu).all() and (mu > 0.0).all():
+        lam = mu
+    else:
+        S = [int(np.argmin(dg))]
+        lam = np.ones(1)
     for _ in range(4 * a + 8):
         g = M.take(S, 1) @ lam
         j = int(np.argmin(g))
@@ -352,7 +372,7 @@ def _wolfe(G, a):
             ix = S + [a]
             mu = _solve(B.take(ix, 0).take(ix, 1), rhs[-s - 1:])[:s]
             if not np.isfinite(mu).all():  # singular (round-off): stop where we are
-                return lam @ G[S]
+                return lam @ G[S], S
             if (mu > 0.0).all():
                 lam = mu
                 break
@@ -364,7 +384,7 @@ def _wolfe(G, a):
             keep = lam > 0.0
             S = [x for x, k in zip(S, keep.tolist()) if k]
             lam = lam[keep]
-    return lam @ G[S]
+    return lam @ G[S], S
 
 
 def _ascend(patch: _Patch, X, iterations, eps, area_band, area_limits):
@@ -391,11 +411,14 @@ def _ascend(patch: _Patch, X, iterations, eps, area_band, area_limits):
     halvings = 0.5 ** np.arange(8)
     n = patch.n
     last = None  # the active set whose direction (d, nd) is known at the current X
+    corral = np.zeros(0, np.intp)  # the corners of the last min-norm point's corral
     for _ in range(iterations):
         active = np.flatnonzero(q <= q.min() + eps)
         if last is None or not np.array_equal(active, last):  # else: the same rows, the same direction
             G = patch.gradients(active, th[active], u[active], w[active]).reshape(active.shape[0], -1)
-            d = _min_norm(G)
+            at = np.searchsorted(active, corral)
+            d, S = _min_norm(G, at[active[np.minimum(at, active.shape[0] - 1)] == corral].tolist())
+            corral = active[S]
             nd = float(np.sqrt(d @ d))
             last = active
         if nd < 1e-12:
@@ -421,6 +444,19 @@ def _ascend(patch: _Patch, X, iterations, eps, area_band, area_limits):
             if eps < _EPS_MIN:
                 break
     return X, f0
+
+
+def _worst_first(qual: np.ndarray, k: int):
+    """The indices of ``np.argsort(qual, kind="stable")`` one by one, sorting only the ``k`` (or a few
+    more) smallest unless more are asked for: the loop over the candidates stops after a few."""
+    if qual.shape[0] > k:
+        v = np.partition(qual, k - 1)[k - 1]
+        head = np.flatnonzero(qual <= v)  # a prefix of the stable order: every smaller value, every tie
+        yield from head[np.argsort(qual[head], kind="stable")].tolist()
+        rest = np.flatnonzero(qual > v)
+        yield from rest[np.argsort(qual[rest], kind="stable")].tolist()
+    else:
+        yield from np.argsort(qual, kind="stable").tolist()
 
 
 def patch_moves(
@@ -450,14 +486,14 @@ def patch_moves(
     cand, qual = cand[keep], qual[keep]
     if not cand.size:
         return P
-    cand = cand[np.argsort(qual, kind="stable")]
     offs, cids = _csr(topo)
     used_cells = np.zeros(nt + topo.n_quad, bool)
     out = P.copy()
     done = 0
-    for c in cand:  # at most a few dozen candidates, at most ``cells`` patches
+    for i in _worst_first(qual, 4 * cells + 16):  # at most a few dozen candidates, at most ``cells`` patches
         if done >= cells:
             break
+        c = int(cand[i])
         verts = allc[0][c] if c < nt else allc[1][c - nt]
         nodes = verts[~blocked[verts]]
         if not nodes.size:
