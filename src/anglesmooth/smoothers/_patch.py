@@ -17,7 +17,7 @@ The move
     patch's minimum corner quality over every cell incident to them: the direction is the
     min-norm element of the convex hull of the gradients of the corners within ``eps`` of the
     minimum (Freitag's steepest ascent of a max-min, here in 2 x nodes dimensions, its min-norm
-    problem solved by Frank-Wolfe steps), the step the longest of 8 halvings that raises the
+    problem solved exactly by Wolfe's algorithm, :mod:`._patchascent`), the step the longest of 8 halvings that raises the
     minimum with every cell valid (positive area, convex quads) and every cell area inside the
     band of :func:`._local.optimize`, every input floor of the moving nodes' incidence rows kept
     (:mod:`._floors`), (at least ``area_band`` of the smallest, at most ``1 /
@@ -27,6 +27,20 @@ The move
     Pure numpy on a few dozen nodes after the pass, so the same for the numpy and compiled kernels;
     only the screen that finds the cells below ``below`` (:func:`_maybe_below`, a superset; the exact
     quality of the cells it keeps decides) is compiled where the mesh runs on the compiled kernels.
+    The patches share no cell, so they ascend in lockstep (:func:`._patchascent.ascend_all`: one
+    evaluation of every patch's trial steps per ascent step, bit for bit the ascent of each alone).
+
+Cost (issue 12 item 3; 100k random Delaunay triangles, 10 default passes, CPU, one thread, a loaded
+machine; stage 5 alone, median ms a pass)
+    Frank-Wolfe (50 steps of tiny numpy operations per min-norm solve, one evaluation per patch and
+    step): numba 41-51, numpy 45-47; now (exact min-norm, warm-started; lockstep patches; the screen
+    and the candidates' quality by columns, only the worst candidates sorted): numba 9-15, numpy
+    13.6-14.2.  The exact min-norm direction is also a better one: on the same stage-5 inputs
+    (paper-style tri / mixed, graded, 2 seeds, and random 100k; 218 patches) the patch's final
+    minimum is 0.17 deg higher on average (155 better, 49 worse); after 10 passes, seeds 0-2, the
+    minimum angle (mean) paper-style triangles 27.37 -> 26.44, mixed 25.34 -> 25.74, quads 30.22 ->
+    33.14, graded 20.69 -> 20.75 (seeds 0-9: -0.22 / +0.04 / +0.83 / -0.11: the trajectories differ,
+    the mean does not move).
 
 Measured (issue 12; paper-style meshes, 10 default passes, seeds 0 / 1 / 2, minimum angle)
     The prototype, run only after the 10 passes (5 rounds of the 8 worst cells): paper-style mixed
