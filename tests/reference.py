@@ -386,28 +386,59 @@ def _corner_q(p, c, m):
     return (min(th, math.pi - th) if k == 4 else th), th, cr, u, w
 
 
-def _ref_min_norm(G, iterations=50):
+def _ref_solve(A, b):
+    """x with A x = b by Gaussian elimination with partial pivoting (None if singular)."""
+    n = len(A)
+    A = [list(r) + [b[i]] for i, r in enumerate(A)]
+    for c in range(n):
+        p = max(range(c, n), key=lambda r: abs(A[r][c]))
+        if A[p][c] == 0.0:
+            return None
+        A[c], A[p] = A[p], A[c]
+        for r in range(c + 1, n):
+            f = A[r][c] / A[c][c]
+            for k in range(c, n + 1):
+                A[r][k] -= f * A[c][k]
+    x = [0.0] * n
+    for r in range(n - 1, -1, -1):
+        x[r] = (A[r][n] - sum(A[r][k] * x[k] for k in range(r + 1, n))) / A[r][r]
+    return x
+
+
+def _ref_min_norm(G):
+    """Wolfe's min-norm point algorithm on the rows of G, on the Gram matrix, ties by the first row."""
     a = len(G)
+    if a == 1:
+        return list(G[0])
     M = [[sum(x * y for x, y in zip(G[i], G[j])) for j in range(a)] for i in range(a)]
-    lam = [1.0 / a] * a
-    for _ in range(iterations):
-        g = [sum(M[i][j] * lam[j] for j in range(a)) for i in range(a)]
-        lg = sum(lam[i] * g[i] for i in range(a))
-        if lg - min(g) <= 0.0:
+    tol = 1e-12 * max(M[i][i] for i in range(a))
+    S = [min(range(a), key=lambda i: M[i][i])]
+    lam = [1.0]
+    for _ in range(4 * a + 8):
+        g = [sum(M[i][s] * l for s, l in zip(S, lam)) for i in range(a)]
+        j = min(range(a), key=lambda i: g[i])
+        if sum(l * g[s] for s, l in zip(S, lam)) - g[j] <= tol or j in S:
             break
-        gmin, gabs = min(g), max(abs(x) for x in g)
-        j = next(i for i in range(a) if g[i] <= gmin + 1e-9 * gabs)
-        d = [-x for x in lam]
-        d[j] += 1.0
-        Md = [sum(M[i][k] * d[k] for k in range(a)) for i in range(a)]
-        den = sum(d[i] * Md[i] for i in range(a))
-        if den <= 0.0:
+        S, lam = S + [j], lam + [0.0]
+        for _ in range(len(S)):
+            n = len(S)
+            K = [[M[x][y] for y in S] + [1.0] for x in S] + [[1.0] * n + [0.0]]
+            mu = _ref_solve(K, [0.0] * n + [1.0])
+            if mu is None:
+                break
+            mu = mu[:n]
+            if all(m > 0.0 for m in mu):
+                lam = mu
+                break
+            r, i = min((lam[i] / (lam[i] - mu[i]), i) for i in range(n) if mu[i] <= 0.0)
+            lam = [lam[k] + r * (mu[k] - lam[k]) for k in range(n)]
+            lam[i] = 0.0
+            S, lam = [s for s, l in zip(S, lam) if l > 0.0], [l for l in lam if l > 0.0]
+        else:
+            continue
+        if mu is None:
             break
-        t = min(1.0, max(0.0, -sum(lam[i] * Md[i] for i in range(a)) / den))
-        if t == 0.0:
-            break
-        lam = [lam[i] + t * d[i] for i in range(a)]
-    return [sum(lam[i] * G[i][k] for i in range(a)) for k in range(len(G[0]))]
+    return [sum(l * G[s][k] for s, l in zip(S, lam)) for k in range(len(G[0]))]
 
 
 def reference_patch_moves(points, topo, floors=None, below=30.0, cells=8, rings=2, iterations=30, eps=2.0,

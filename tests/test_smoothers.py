@@ -733,6 +733,39 @@ def test_patch_moves_match_the_per_patch_reference(gen_name, seed):
     assert np.array_equal(got[topo.fixed], p[topo.fixed])
 
 
+@pytest.mark.parametrize("gen_name,seed", [("paper_mixed_mesh", 1), ("paper_triangle_mesh", 0)])
+def test_patch_ascent_of_all_patches_at_once_is_that_of_each_alone(gen_name, seed):
+    """Stage 5 moves a pass's patches in lockstep (one evaluation of every patch's trial steps): the
+    same positions, bit for bit, as the ascent of each patch alone (floors and area limits included)."""
+    from anglesmooth.smoothers import _patch, _patchascent
+    from anglesmooth.smoothers._floors import input_floors
+
+    mesh = getattr(generate, gen_name)(seed=seed)
+    topo = build_topology(mesh)
+    floors = input_floors(np.array(mesh.points), topo)
+    p = smooth(mesh, "angle", 2, topology=topo, patch_cells=0).points
+    a = signed_areas(p, topo.tri, topo.quad)
+    limits = (float(a.min()), float(a.max()))
+    seen = []
+
+    def spy(patches, xs, *args):
+        seen.append((patches, [x.copy() for x in xs], args))
+        return _patchascent.ascend_all(patches, xs, *args)
+
+    orig = _patch.ascend_all
+    _patch.ascend_all = spy
+    try:
+        _patch.patch_moves(p, topo, floors, area_limits=limits)
+    finally:
+        _patch.ascend_all = orig
+    (patches, xs, args), = seen
+    assert len(patches) >= 2 and any(q.floor is not None for q in patches)
+    together = _patchascent.ascend_all(patches, xs, *args)
+    alone = [_patchascent._ascend(q, x, *args)[0] for q, x in zip(patches, xs)]
+    assert any(not np.array_equal(t, x) for t, x in zip(together, xs))  # something moved
+    assert all(np.array_equal(t, x) for t, x in zip(together, alone))
+
+
 def test_patch_moves_repair_the_trapped_valence3_sliver():
     """Paper-style mixed mesh, seed 0: a valence-3 node inside a boundary sliver with two fixed corners;
     no single node can lift it (18.7 deg after 10 passes without stage 5), the patch can (20.3)."""

@@ -17,7 +17,7 @@ The move
     patch's minimum corner quality over every cell incident to them: the direction is the
     min-norm element of the convex hull of the gradients of the corners within ``eps`` of the
     minimum (Freitag's steepest ascent of a max-min, here in 2 x nodes dimensions, its min-norm
-    problem solved by Frank-Wolfe steps), the step the longest of 8 halvings that raises the
+    problem solved exactly by Wolfe's algorithm, :mod:`._patchascent`), the step the longest of 8 halvings that raises the
     minimum with every cell valid (positive area, convex quads) and every cell area inside the
     band of :func:`._local.optimize`, every input floor of the moving nodes' incidence rows kept
     (:mod:`._floors`), (at least ``area_band`` of the smallest, at most ``1 /
@@ -27,6 +27,20 @@ The move
     Pure numpy on a few dozen nodes after the pass, so the same for the numpy and compiled kernels;
     only the screen that finds the cells below ``below`` (:func:`_maybe_below`, a superset; the exact
     quality of the cells it keeps decides) is compiled where the mesh runs on the compiled kernels.
+    The patches share no cell, so they ascend in lockstep (:func:`._patchascent.ascend_all`: one
+    evaluation of every patch's trial steps per ascent step, bit for bit the ascent of each alone).
+
+Cost (issue 12 item 3; 100k random Delaunay triangles, 10 default passes, CPU, one thread, a loaded
+machine; stage 5 alone, median ms a pass)
+    Frank-Wolfe (50 steps of tiny numpy operations per min-norm solve, one evaluation per patch and
+    step): numba 41-51, numpy 45-47; now (exact min-norm, warm-started; lockstep patches; the screen
+    and the candidates' quality by columns, only the worst candidates sorted): numba 9-15, numpy
+    13.6-14.2.  The exact min-norm direction is also a better one: on the same stage-5 inputs
+    (paper-style tri / mixed, graded, 2 seeds, and random 100k; 218 patches) the patch's final
+    minimum is 0.17 deg higher on average (155 better, 49 worse); after 10 passes, seeds 0-2, the
+    minimum angle (mean) paper-style triangles 27.37 -> 26.44, mixed 25.34 -> 25.74, quads 30.22 ->
+    33.14, graded 20.69 -> 20.75 (seeds 0-9: -0.22 / +0.04 / +0.83 / -0.11: the trajectories differ,
+    the mean does not move).
 
 Measured (issue 12; paper-style meshes, 10 default passes, seeds 0 / 1 / 2, minimum angle)
     The prototype, run only after the 10 passes (5 rounds of the 8 worst cells): paper-style mixed
@@ -50,6 +64,7 @@ import numpy as np
 from ..topology import Topology
 from ._floors import Floors
 from . import _fast
+from ._patchascent import _Patch, ascend_all
 
 __all__ = ["patch_moves"]
 
@@ -57,10 +72,7 @@ __all__ = ["patch_moves"]
 #: measured off (see the module docstring; the floors are kept exactly instead).
 BLOCK_KEEP = False
 BLOCK_FLOORED = False
-_GAIN = 1e-10  # radians
-_TIE = 1e-9
-_GAP = 0.0  # relative Frank-Wolfe gap at which the min-norm search stops (1e-3: paper-style mixed 25.54 -> 24.83 deg)
-_EPS_MIN = 1e-4  # radians: the active-set tolerance halves down to this, then the ascent stops
+_CHUNK = 1 << 15  # cells per chunk of the numpy screen (its temporaries stay in the caches)
 
 
 def _csr(topo: Topology):
@@ -78,27 +90,26 @@ def _csr(topo: Topology):
     return hit
 
 
-def _loc_of(topo: Topology) -> np.ndarray:
-    """(N,) position of every free node in ``topo.free_nodes`` (garbage at fixed nodes); cached."""
-    key = ("patch-loc-of",)
-    hit = topo._cache.get(key)
-    if hit is None:
-        hit = np.zeros(topo.n_points, np.intp)
-        hit[topo.free_nodes] = np.arange(topo.n_free)
-        topo._cache[key] = hit
-    return hit
-
-
 def cell_quality(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """Per cell (m, k), the smallest corner quality in radians (quads: ``min(a, pi - a)``); -1 if invalid."""
-    p = points[cells]
-    u = np.roll(p, -1, axis=1) - p
-    w = np.roll(p, 1, axis=1) - p
-    cr = u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0]
-    th = np.arctan2(cr, u[..., 0] * w[..., 0] + u[..., 1] * w[..., 1])
-    if cells.shape[1] == 4:
+    """Per cell (m, k), the smallest corner quality in radians (quads: ``min(a, pi - a)``); -1 if invalid.
+
+    Corner c: the angle from u = p_{c+1} - p_c to w = p_{c-1} - p_c, ``arctan2(u x w, u . w)``.
+    """
+    m, k = cells.shape
+    pts = np.asarray(points, dtype=np.float64)
+    z = np.ascontiguousarray(pts[:, :2]).view(np.complex128).ravel()
+    c = cells.T.astype(np.intp)
+    zc = [z[c[i]] for i in range(k)]
+    cr, dot = np.empty((k, m)), np.empty((k, m))
+    for i in range(k):
+        u, w = zc[(i + 1) % k] - zc[i], zc[i - 1] - zc[i]
+        ux, uy, wx, wy = u.real, u.imag, w.real, w.imag
+        np.subtract(ux * wy, uy * wx, out=cr[i])
+        np.add(ux * wx, uy * wy, out=dot[i])
+    th = np.arctan2(cr, dot)
+    if k == 4:
         th = np.minimum(th, np.pi - th)
-    return np.where((cr > 0).all(axis=1), th.min(axis=1), -1.0)
+    return np.where((cr > 0).all(axis=0), th.min(axis=0), -1.0)
 
 
 def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool = False) -> np.ndarray:
@@ -119,17 +130,25 @@ def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool
         from ._patchkernels import maybe_below
 
         return np.flatnonzero(maybe_below(np.ascontiguousarray(points[:, :2]), cells, t))
-    x, y = points[:, 0], points[:, 1]
+    # the edges e_c = p_{c+1} - p_c once (the corner's u is e_c, its w is -e_{c-1} exactly), so that
+    # cross = uy ex - ux ey and |dot| = |ux ex + uy ey| with e = e_{c-1}: the same bits as from u and w
+    z = np.ascontiguousarray(points[:, :2], dtype=np.float64).view(np.complex128).ravel()
     hit = np.zeros(m, bool)
-    for c in range(k):
-        a, b, d = cells[:, c], cells[:, (c + 1) % k], cells[:, (c - 1) % k]
-        ux, uy = x[b] - x[a], y[b] - y[a]
-        wx, wy = x[d] - x[a], y[d] - y[a]
-        cr = ux * wy - uy * wx
-        dot = np.abs(ux * wx + uy * wy)
-        dot *= t
-        dot += 1e-300
-        hit |= cr < dot
+    for s0 in range(0, m, _CHUNK):
+        c = cells[s0:s0 + _CHUNK].T.astype(np.intp)
+        zc = [z[c[i]] for i in range(k)]
+        e = [zc[(i + 1) % k] - zc[i] for i in range(k)]
+        ex, ey = [x.real.copy() for x in e], [x.imag.copy() for x in e]
+        h = hit[s0:s0 + _CHUNK]
+        for i in range(k):
+            cr = ey[i] * ex[i - 1]
+            cr -= ex[i] * ey[i - 1]
+            dot = ex[i] * ex[i - 1]
+            dot += ey[i] * ey[i - 1]
+            np.abs(dot, out=dot)
+            dot *= t
+            dot += 1e-300
+            h |= cr < dot
     return np.flatnonzero(hit)
 
 
@@ -150,194 +169,17 @@ def _blocked(topo: Topology, floors: Floors | None) -> np.ndarray:
     return hit[1]
 
 
-def _area2(c):
-    """Twice the signed area of cells with corners c (..., k, 2): triangles by an edge cross product,
-    quads by their diagonals (the reference's formulas)."""
-    if c.shape[-2] == 3:
-        return (c[..., 1, 0] - c[..., 0, 0]) * (c[..., 2, 1] - c[..., 0, 1]) - (c[..., 1, 1] - c[..., 0, 1]) * (
-            c[..., 2, 0] - c[..., 0, 0])
-    return (c[..., 2, 0] - c[..., 0, 0]) * (c[..., 3, 1] - c[..., 1, 1]) - (c[..., 2, 1] - c[..., 0, 1]) * (
-        c[..., 3, 0] - c[..., 1, 0])
-
-
-def _slots(nodes: np.ndarray):
-    """A function giving, for an array of node ids, each one's position in ``nodes`` (unique), -1 if absent."""
-    order = np.argsort(nodes, kind="stable")
-    ranked = nodes[order]
-
-    def slot(a):
-        a = np.asarray(a)
-        pos = np.minimum(np.searchsorted(ranked, a), max(ranked.shape[0] - 1, 0))
-        return np.where(ranked[pos] == a, order[pos], -1) if ranked.size else np.full(a.shape, -1)
-
-    return slot
-
-
-class _Patch:
-    """One patch: its moving nodes and the corners of every cell incident to them."""
-
-    def __init__(self, points, topo, nodes, cell_ids, floors=None):
-        nt = topo.n_tri
-        self.nodes = nodes
-        tri = topo.tri[cell_ids[cell_ids < nt]]
-        quad = topo.quad[cell_ids[cell_ids >= nt] - nt]
-        slot = _slots(nodes)
-        cv, cn, cp, sq = [], [], [], []
-        for cells in (tri, quad):
-            k = cells.shape[1]
-            for m in range(k):
-                cv.append(cells[:, m])
-                cn.append(cells[:, (m + 1) % k])
-                cp.append(cells[:, m - 1])
-                sq.append(np.full(cells.shape[0], k == 4))
-        self.cv, self.cn, self.cp = (np.concatenate(a) for a in (cv, cn, cp))
-        self.quad = np.concatenate(sq)
-        self.P = points
-        self.cells = [(c, slot(c))
-                      for c in (tri, quad) if c.shape[0]]
-        self.s = [slot(a) for a in (self.cv, self.cn, self.cp)]
-        # the input floors of the moving nodes' incidence rows (node first, ccw): twice the area and
-        # the two edges at the node may not go below them (see _floors.input_floors)
-        self.floor_rows = []
-        if floors is not None and floors.active:
-            locs = _loc_of(topo)[nodes]
-            for table, verts, fa, f1, f2 in ((topo.tri_loc, topo.tri_verts, floors.t_area2, floors.t_e1, floors.t_e2),
-                                             (topo.quad_loc, topo.quad_verts, floors.q_area2, floors.q_e1, floors.q_e3)):
-                # the needles in the table's own type: otherwise numpy converts the whole table on every call
-                lc = locs.astype(table.dtype)
-                lo, hi = np.searchsorted(table, lc, "left"), np.searchsorted(table, lc, "right")
-                rows = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())]
-                                      + [np.zeros(0, np.intp)])
-                rows = rows[fa[rows] > 0]
-                if rows.size:
-                    vv = verts[rows]
-                    sl = slot(vv)
-                    self.floor_rows.append((vv, sl, fa[rows], f1[rows], f2[rows]))
-
-    def floors_ok(self, X):
-        """(K,) bool: every floored row of the moving nodes keeps its floors at positions X (K, n, 2)."""
-        ok = np.ones(X.shape[0], bool)
-        for vv, sl, fa, f1, f2 in self.floor_rows:
-            c = self._cell_xy(X, vv, sl)
-            a2 = _area2(c)
-            e1 = np.hypot(*(c[..., 1, :] - c[..., 0, :]).transpose(2, 0, 1))
-            e2 = np.hypot(*(c[..., -1, :] - c[..., 0, :]).transpose(2, 0, 1))
-            ok &= ((a2 >= fa) & (e1 >= f1) & (e2 >= f2)).all(axis=1)
-        return ok
-
-    def _xy(self, X, which):
-        """Coordinates (K, C, 2) of corner role ``which`` (0: vertex, 1: next, 2: previous)."""
-        ids, s = (self.cv, self.cn, self.cp)[which], self.s[which]
-        out = np.broadcast_to(self.P[ids], (X.shape[0],) + ids.shape + (2,)).copy()
-        m = s >= 0
-        out[:, m] = X[:, s[m]]
-        return out
-
-    def corners(self, X):
-        """(quality (K, C), cross products (K, C), u, w) at the moving nodes' positions X (K, n, 2)."""
-        v = self._xy(X, 0)
-        u = self._xy(X, 1) - v
-        w = self._xy(X, 2) - v
-        cr = u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0]
-        th = np.arctan2(cr, u[..., 0] * w[..., 0] + u[..., 1] * w[..., 1])
-        return np.where(self.quad, np.minimum(th, np.pi - th), th), th, cr, u, w
-
-    def _cell_xy(self, X, vv, sl):
-        c = np.broadcast_to(self.P[vv], (X.shape[0],) + vv.shape + (2,)).copy()
-        m = sl >= 0
-        c[:, m] = X[:, sl[m]]
-        return c
-
-    def areas(self, X):
-        """(K, cells) signed areas (the shoelace of :func:`..topology.signed_areas`) at positions X."""
-        out = []
-        for vv, sl in self.cells:
-            out.append(0.5 * _area2(self._cell_xy(X, vv, sl)))
-        return np.concatenate(out, axis=1)
-
-    def gradients(self, sel, th, u, w):
-        """(c, n, 2): gradient of the quality of the corners ``sel`` (at angles th, edges u, w) with
-        respect to the moving nodes."""
-        n = self.nodes.shape[0]
-        sgn = np.where(self.quad[sel] & (th > np.pi / 2), -1.0, 1.0)[:, None]
-        gp = np.stack([-w[:, 1], w[:, 0]], 1) / (w * w).sum(1)[:, None] * sgn  # d angle / d previous
-        gn = np.stack([u[:, 1], -u[:, 0]], 1) / (u * u).sum(1)[:, None] * sgn  # d angle / d next
-        G = np.zeros((th.shape[0], n + 1, 2))  # slot n: the non-moving nodes (dropped)
-        c = np.arange(th.shape[0])
-        for g, s in ((gp, self.s[2][sel]), (gn, self.s[1][sel]), (-(gp + gn), self.s[0][sel])):
-            np.add.at(G, (c, np.where(s >= 0, s, n)), g)
-        return G[:, :n]
-
-
-def _min_norm(G: np.ndarray, iterations: int = 50) -> np.ndarray:
-    """The min-norm point of the convex hull of the rows of G (a, d), by Frank-Wolfe steps."""
-    a = G.shape[0]
-    M = G @ G.T
-    lam = np.full(a, 1.0 / a)
-    for _ in range(iterations):
-        g = M @ lam
-        if float(lam @ g) - float(g.min()) <= _GAP * float(lam @ g):  # Frank-Wolfe gap: near enough
-            break
-        j = int(np.flatnonzero(g <= g.min() + _TIE * np.abs(g).max())[0])  # ties: the first, whatever the round-off
-        d = -lam
-        d[j] += 1.0
-        den = float(d @ M @ d)
-        if den <= 0.0:
-            break
-        t = min(1.0, max(0.0, -float(lam @ M @ d) / den))
-        if t == 0.0:
-            break
-        lam = lam + t * d
-    return lam @ G
-
-
-def _ascend(patch: _Patch, X, iterations, eps, area_band, area_limits):
-    """The patch's nodes after ``iterations`` ascent steps (see the module docstring)."""
-    q, th, cr, u, w = patch.corners(X[None])
-    ar = patch.areas(X[None])[0]
-    lo0, hi0 = float(ar.min()), float(ar.max())
-    lo, hi = -np.inf, np.inf
-    if area_band is not None:
-        lo, hi = area_band * lo0, hi0 / area_band
-        if area_limits is not None:
-            lo, hi = max(lo, min(area_limits[0], lo0)), min(hi, max(area_limits[1], hi0))
-
-    def score(Xs):
-        q, th, cr, u, w = patch.corners(Xs)
-        a = patch.areas(Xs)
-        ok = (cr > 0).all(axis=1) & (a.min(axis=1) >= lo) & (a.max(axis=1) <= hi) & patch.floors_ok(Xs)
-        return np.where(ok, q.min(axis=1), -np.inf)
-
-    f0 = float(score(X[None])[0])
-    if not np.isfinite(f0):
-        return X, f0
-    h = float(np.mean(np.sqrt((u[0] * u[0]).sum(1))))
-    t = 0.1 * h
-    halvings = 0.5 ** np.arange(8)
-    for _ in range(iterations):
-        q, th, cr, u, w = patch.corners(X[None])
-        q, th = q[0], th[0]
-        active = q <= q.min() + eps
-        G = patch.gradients(active, th[active], u[0][active], w[0][active]).reshape(int(active.sum()), -1)
-        d = _min_norm(G)
-        nd = float(np.sqrt(d @ d))
-        if nd < 1e-12:
-            eps *= 0.5
-            if eps < _EPS_MIN:
-                break
-            continue
-        steps = t * halvings
-        Xs = X[None] + steps[:, None, None] * (d / nd).reshape(-1, 2)[None]
-        fs = score(Xs)
-        k = np.flatnonzero(fs > f0 + _GAIN)  # a real gain: round-off never decides a step
-        if k.size:
-            X, f0, t = Xs[k[0]], float(fs[k[0]]), min(2.0 * steps[k[0]], 0.5 * h)
-        else:
-            eps *= 0.5
-            t = float(steps[-1])
-            if eps < _EPS_MIN:
-                break
-    return X, f0
+def _worst_first(qual: np.ndarray, k: int):
+    """The indices of ``np.argsort(qual, kind="stable")`` one by one, sorting only the ``k`` (or a few
+    more) smallest unless more are asked for: the loop over the candidates stops after a few."""
+    if qual.shape[0] > k:
+        v = np.partition(qual, k - 1)[k - 1]
+        head = np.flatnonzero(qual <= v)  # a prefix of the stable order: every smaller value, every tie
+        yield from head[np.argsort(qual[head], kind="stable")].tolist()
+        rest = np.flatnonzero(qual > v)
+        yield from rest[np.argsort(qual[rest], kind="stable")].tolist()
+    else:
+        yield from np.argsort(qual, kind="stable").tolist()
 
 
 def patch_moves(
@@ -367,14 +209,15 @@ def patch_moves(
     cand, qual = cand[keep], qual[keep]
     if not cand.size:
         return P
-    cand = cand[np.argsort(qual, kind="stable")]
     offs, cids = _csr(topo)
     used_cells = np.zeros(nt + topo.n_quad, bool)
     out = P.copy()
     done = 0
-    for c in cand:  # at most a few dozen candidates, at most ``cells`` patches
+    patches = []
+    for i in _worst_first(qual, 4 * cells + 16):  # at most a few dozen candidates, at most ``cells`` patches
         if done >= cells:
             break
+        c = int(cand[i])
         verts = allc[0][c] if c < nt else allc[1][c - nt]
         nodes = verts[~blocked[verts]]
         if not nodes.size:
@@ -387,7 +230,9 @@ def patch_moves(
         if used_cells[ids].any():
             continue
         used_cells[ids] = True
-        patch = _Patch(out, topo, nodes, ids, floors)
-        X, _ = _ascend(patch, out[nodes], iterations, np.radians(eps), area_band, area_limits)
-        out[nodes] = X
+        patches.append(_Patch(P, topo, nodes, ids, floors))
+    # the patches share no cell, so none has another's moving nodes among its cells: all at once
+    for patch, X in zip(patches, ascend_all(patches, [P[p.nodes] for p in patches], iterations, np.radians(eps),
+                                            area_band, area_limits)):
+        out[patch.nodes] = X
     return out

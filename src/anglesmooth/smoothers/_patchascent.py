@@ -1,0 +1,471 @@
+"""The ascent of stage 5's patches (:mod:`._patch`): the patch's nodes move by a steepest ascent of
+its minimum corner quality.
+
+One patch (:class:`_Patch`) holds its moving nodes and the corners of every cell incident to them as
+local indices; :func:`_ascend` is the ascent of one patch, :func:`ascend_all` that of every patch of
+a pass at once (they share no cell, so none sees another's nodes move): the same operations, bit
+for bit, with one evaluation of all the patches' trial steps per ascent step instead of one per
+patch.  The direction is the min-norm point of the hull of the active corners' gradients
+(:func:`_min_norm`: Wolfe's algorithm, exact, warm-started from the previous step's corral).
+Pure numpy on a few dozen nodes, the same for the numpy and the compiled kernels.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..topology import Topology
+
+__all__ = ["ascend_all"]
+
+_GAIN = 1e-10  # radians: a step must raise the minimum by this (round-off never decides a step)
+_WOLFE_TOL = 1e-12  # the min-norm point is found when no row is below it along itself by this x the largest |row|^2
+_EPS_MIN = 1e-4  # radians: the active-set tolerance halves down to this, then the ascent stops
+_HALVINGS = 0.5 ** np.arange(8)
+
+
+def _loc_of(topo: Topology) -> np.ndarray:
+    """(N,) position of every free node in ``topo.free_nodes`` (garbage at fixed nodes); cached."""
+    key = ("patch-loc-of",)
+    hit = topo._cache.get(key)
+    if hit is None:
+        hit = np.zeros(topo.n_points, np.intp)
+        hit[topo.free_nodes] = np.arange(topo.n_free)
+        topo._cache[key] = hit
+    return hit
+
+
+def _area2(c):
+    """Twice the signed area of cells with corners c (..., k, 2): triangles by an edge cross product,
+    quads by their diagonals (the reference's formulas)."""
+    if c.shape[-2] == 3:
+        return (c[..., 1, 0] - c[..., 0, 0]) * (c[..., 2, 1] - c[..., 0, 1]) - (c[..., 1, 1] - c[..., 0, 1]) * (
+            c[..., 2, 0] - c[..., 0, 0])
+    return (c[..., 2, 0] - c[..., 0, 0]) * (c[..., 3, 1] - c[..., 1, 1]) - (c[..., 2, 1] - c[..., 0, 1]) * (
+        c[..., 3, 0] - c[..., 1, 0])
+
+
+class _Patch:
+    """One patch: its moving nodes and the corners of every cell incident to them, as local indices.
+
+    The local nodes are the ``n`` moving nodes (slots 0..n-1, the order of ``nodes``) then the other
+    corners of the patch's cells (their positions ``ext`` never change), so that every evaluation is
+    a gather from one (K, n + m, 2) array.  The corners are the triangles' corners 0, 1, 2 then the
+    quads' 0..3 (corner 0 of triangle i is corner i: its cross product is twice the triangle's area,
+    the same operations as :func:`_area2`); an input floor row (a moving node's rotated cell) is the
+    corner at that node: its area is the corner's cross product (triangles) or the quad's (the
+    diagonal formula gives the same bits in every rotation), its edges the corner's u and w.
+    """
+
+    def __init__(self, points, topo, nodes, cell_ids, floors=None):
+        nt = topo.n_tri
+        self.nodes = nodes
+        n = nodes.shape[0]
+        tri = topo.tri[cell_ids[cell_ids < nt]]
+        quad = topo.quad[cell_ids[cell_ids >= nt] - nt]
+        allv = np.concatenate([tri.ravel(), quad.ravel()]).astype(np.intp)
+        ext = np.setdiff1d(allv, nodes)
+        local = np.concatenate([nodes, ext])
+        order = np.argsort(local, kind="stable")
+        ranked = local[order]
+
+        def slot(a):
+            return order[np.searchsorted(ranked, a)]
+
+        cv, cn, cp = [], [], []
+        for cells in (tri, quad):
+            k = cells.shape[1]
+            for m in range(k):
+                cv.append(cells[:, m])
+                cn.append(cells[:, (m + 1) % k])
+                cp.append(cells[:, m - 1])
+        self.lv, self.ln, self.lp = (slot(np.concatenate(a).astype(np.intp)) for a in (cv, cn, cp))
+        self.l3 = np.stack([self.lp, self.ln, self.lv], axis=1)
+        self.n, self.ntri, self.nq = n, tri.shape[0], quad.shape[0]
+        self.quad = np.arange(self.lv.shape[0]) >= 3 * self.ntri
+        self.any_quad = bool(self.nq)
+        self.lq = slot(quad.astype(np.intp)) if self.nq else None
+        self.ext = np.asarray(points, np.float64)[ext]
+        # the input floors of the moving nodes' incidence rows (node first, ccw): twice the area and
+        # the two edges at the node may not go below them (see _floors.input_floors)
+        self.floor = None
+        if floors is not None and floors.active:
+            L = local.shape[0]
+            key = (self.lv * L + self.ln) * L + self.lp
+            korder = np.argsort(key, kind="stable")
+            fc, fq, fa, f1, f2 = [], [], [], [], []
+            locs = _loc_of(topo)[nodes]
+            for table, verts, ta, t1, t2 in ((topo.tri_loc, topo.tri_verts, floors.t_area2, floors.t_e1, floors.t_e2),
+                                             (topo.quad_loc, topo.quad_verts, floors.q_area2, floors.q_e1, floors.q_e3)):
+                # the needles in the table's own type: otherwise numpy converts the whole table on every call
+                lc = locs.astype(table.dtype)
+                lo, hi = np.searchsorted(table, lc, "left"), np.searchsorted(table, lc, "right")
+                rows = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())]
+                                      + [np.zeros(0, np.intp)])
+                rows = rows[ta[rows] > 0]
+                if rows.size:
+                    vv = slot(verts[rows].astype(np.intp))
+                    want = (vv[:, 0] * L + vv[:, 1]) * L + vv[:, -1]
+                    c = korder[np.searchsorted(key, want, sorter=korder)]
+                    fc.append(c)
+                    fq.append(c >= 3 * self.ntri)
+                    fa.append(ta[rows]), f1.append(t1[rows]), f2.append(t2[rows])
+            if fc:
+                fc, fq = np.concatenate(fc), np.concatenate(fq)
+                # a quad corner's cell: the quads' corner m of quad j is 3 ntri + m nq + j
+                qc = (fc - 3 * self.ntri) % max(self.nq, 1)
+                self.floor = (fc, fq, np.where(fq, qc, 0), np.concatenate(fa), np.concatenate(f1), np.concatenate(f2))
+
+    def positions(self, X):
+        """(K, n + m, 2) local positions: the moving nodes at X (K, n, 2), the others where they are."""
+        Y = np.empty((X.shape[0], X.shape[1] + self.ext.shape[0], 2))
+        Y[:, : self.n] = X
+        Y[:, self.n:] = self.ext
+        return Y
+
+    def corners(self, Y):
+        """(quality, angle, cross product, u, w) of every corner (K, C) at local positions Y."""
+        v = Y[:, self.lv]
+        u = Y[:, self.ln] - v
+        w = Y[:, self.lp] - v
+        cr = u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0]
+        th = np.arctan2(cr, u[..., 0] * w[..., 0] + u[..., 1] * w[..., 1])
+        q = np.where(self.quad, np.minimum(th, np.pi - th), th) if self.any_quad else th
+        return q, th, cr, u, w
+
+    def score(self, Y, lo, hi):
+        """(K,) the minimum corner quality at Y, -inf where a cell is invalid or a limit broken; and the corners."""
+        q, th, cr, u, w = cs = self.corners(Y)
+        tri2 = cr[:, : self.ntri]
+        ok = (cr > 0).all(axis=1)
+        if self.any_quad:
+            q2 = _area2(Y[:, self.lq])
+            a = np.concatenate([0.5 * tri2, 0.5 * q2], axis=1)
+        else:
+            a = 0.5 * tri2
+        ok &= (a.min(axis=1) >= lo) & (a.max(axis=1) <= hi)
+        if self.floor is not None:
+            fc, fq, qc, fa, f1, f2 = self.floor
+            a2 = cr[:, fc]
+            if self.any_quad:
+                a2 = np.where(fq, q2[:, qc], a2)
+            e1 = np.hypot(u[:, fc, 0], u[:, fc, 1])
+            e2 = np.hypot(w[:, fc, 0], w[:, fc, 1])
+            ok &= ((a2 >= fa) & (e1 >= f1) & (e2 >= f2)).all(axis=1)
+        return np.where(ok, q.min(axis=1), -np.inf), cs
+
+    def gradients(self, sel, th, u, w):
+        """(c, n, 2): gradient of the quality of the corners ``sel`` (indices; at angles th, edges u,
+        w) with respect to the moving nodes."""
+        a = sel.shape[0]
+        g = np.empty((a, 3, 2))  # d angle / d previous, next, vertex
+        g[:, 0, 0] = -w[:, 1]
+        g[:, 0, 1] = w[:, 0]
+        g[:, 1, 0] = u[:, 1]
+        g[:, 1, 1] = -u[:, 0]
+        g[:, 0] /= (w * w).sum(1)[:, None]
+        g[:, 1] /= (u * u).sum(1)[:, None]
+        if self.any_quad:
+            g[:, :2] *= np.where(self.quad[sel] & (th > np.pi / 2), -1.0, 1.0)[:, None, None]
+        np.add(g[:, 0], g[:, 1], out=g[:, 2])
+        np.negative(g[:, 2], out=g[:, 2])
+        G = np.zeros((a, self.ext.shape[0] + self.n, 2))  # slots n..: the non-moving nodes (dropped)
+        # a corner's three nodes are distinct: one value per entry, as np.add.at would sum it
+        G[np.arange(a)[:, None], self.l3[sel]] = g
+        return G[:, : self.n]
+
+
+try:  # np.linalg.solve's own kernel without its wrapper (a third of a small solve's time); NaN if singular
+    from numpy.linalg._umath_linalg import solve1 as _solve1
+
+    _solve = _solve1
+except ImportError:  # pragma: no cover - another numpy layout
+    def _solve(A, b):
+        try:
+            return np.linalg.solve(A, b)
+        except np.linalg.LinAlgError:
+            return np.full(b.shape, np.nan)
+
+
+def _min_norm(G: np.ndarray, start=()) -> tuple[np.ndarray, list]:
+    """The min-norm point of the convex hull of the rows of G (a, d), exactly: Wolfe's algorithm.
+
+    A corral S of rows (affinely independent) holds the current point x = lam @ G[S] (lam > 0,
+    sum 1); a major cycle adds the row j that is most negative along x (x . G[j] < x . x, by more
+    than :data:`_WOLFE_TOL` times the largest squared row norm: otherwise x is the min-norm point)
+    and moves to the affine minimizer of the corral, a minor cycle drops the rows whose weight that
+    move would make non-positive (the segment stops where the first one reaches 0).  Everything on
+    the Gram matrix M = G G^T; the affine minimizer solves [[M_SS, 1], [1^T, 0]] [mu, nu] = [0, 1].
+    Ties by the first index.  ``start``: rows to start from (the corral of the previous ascent step,
+    where they are still active), when their affine minimizer is inside their hull; else the
+    shortest row.  The min-norm point is unique, so the start only changes the round-off.
+    Returns the point and its corral.
+    """
+    a = G.shape[0]
+    if a == 1:
+        return G[0].copy(), [0]
+    with np.errstate(all="ignore"):  # a singular corral system: NaN, handled below
+        return _wolfe(G, a, list(start))
+
+
+def _wolfe(G, a, S):
+    M = G @ G.T
+    B = np.ones((a + 1, a + 1))  # M bordered by ones: the corral's affine system is a submatrix
+    B[:a, :a] = M
+    B[a, a] = 0.0
+    rhs = np.zeros(a + 1)
+    rhs[-1] = 1.0
+    dg = np.diag(M)
+    tol = _WOLFE_TOL * float(dg.max())
+    mu = None
+    if len(S) > 1:
+        ix = S + [a]
+        mu = _solve(B.take(ix, 0).take(ix, 1), rhs[-len(S) - 1:])[:-1]
+    if mu is not None and np.isfinite(mu).all() and (mu > 0.0).all():
+        lam = mu
+    else:
+        S = [int(np.argmin(dg))]
+        lam = np.ones(1)
+    for _ in range(4 * a + 8):
+        g = M.take(S, 1) @ lam
+        j = int(np.argmin(g))
+        if float(lam @ g[S]) - float(g[j]) <= tol or j in S:
+            break
+        S.append(j)
+        lam = np.append(lam, 0.0)
+        for _ in range(len(S)):  # minor cycles: at most one row dropped each
+            s = len(S)
+            ix = S + [a]
+            mu = _solve(B.take(ix, 0).take(ix, 1), rhs[-s - 1:])[:s]
+            if not np.isfinite(mu).all():  # singular (round-off): stop where we are
+                return lam @ G[S], S
+            if (mu > 0.0).all():
+                lam = mu
+                break
+            neg = np.flatnonzero(mu <= 0.0)
+            r = lam[neg] / (lam[neg] - mu[neg])
+            i = int(neg[np.argmin(r)])
+            lam = lam + float(r.min()) * (mu - lam)
+            lam[i] = 0.0
+            keep = lam > 0.0
+            S = [x for x, k in zip(S, keep.tolist()) if k]
+            lam = lam[keep]
+    return lam @ G[S], S
+
+
+def _limits(patch: _Patch, Y, area_band, area_limits):
+    """The area band (lo, hi) of a patch at its start positions Y (1, n + m, 2)."""
+    ar = 0.5 * patch.corners(Y)[2][0, : patch.ntri]
+    if patch.any_quad:
+        ar = np.concatenate([ar, 0.5 * _area2(Y[0, patch.lq])])
+    lo0, hi0 = float(ar.min()), float(ar.max())
+    lo, hi = -np.inf, np.inf
+    if area_band is not None:
+        lo, hi = area_band * lo0, hi0 / area_band
+        if area_limits is not None:
+            lo, hi = max(lo, min(area_limits[0], lo0)), min(hi, max(area_limits[1], hi0))
+    return lo, hi
+
+
+def _ascend(patch: _Patch, X, iterations, eps, area_band, area_limits):
+    """The patch's nodes after ``iterations`` ascent steps (see :mod:`._patch`), one patch alone."""
+    Y = patch.positions(X[None])
+    lo, hi = _limits(patch, Y, area_band, area_limits)
+    f, (q, th, cr, u, w) = patch.score(Y, lo, hi)
+    f0 = float(f[0])
+    if not np.isfinite(f0):
+        return X, f0
+    q, th, u, w = q[0], th[0], u[0], w[0]
+    h = float(np.mean(np.sqrt((u * u).sum(1))))
+    t = 0.1 * h
+    halvings = _HALVINGS
+    n = patch.n
+    last = None  # the active set whose direction (d, nd) is known at the current X
+    corral = np.zeros(0, np.intp)  # the corners of the last min-norm point's corral
+    for _ in range(iterations):
+        active = np.flatnonzero(q <= q.min() + eps)
+        if last is None or not np.array_equal(active, last):  # else: the same rows, the same direction
+            G = patch.gradients(active, th[active], u[active], w[active]).reshape(active.shape[0], -1)
+            at = np.searchsorted(active, corral)
+            d, S = _min_norm(G, at[active[np.minimum(at, active.shape[0] - 1)] == corral].tolist())
+            corral = active[S]
+            nd = float(np.sqrt(d @ d))
+            last = active
+        if nd < 1e-12:
+            eps *= 0.5
+            if eps < _EPS_MIN:
+                break
+            continue
+        steps = t * halvings
+        Xs = X[None] + steps[:, None, None] * (d / nd).reshape(-1, 2)[None]
+        Ys = np.empty((8, Y.shape[1], 2))
+        Ys[:, :n] = Xs
+        Ys[:, n:] = patch.ext
+        fs, (qs, ths, _, us, ws) = patch.score(Ys, lo, hi)
+        k = np.flatnonzero(fs > f0 + _GAIN)  # a real gain: round-off never decides a step
+        if k.size:
+            k = k[0]
+            X, f0, t = Xs[k], float(fs[k]), min(2.0 * steps[k], 0.5 * h)
+            q, th, u, w = qs[k], ths[k], us[k], ws[k]
+            last = None
+        else:
+            eps *= 0.5
+            t = float(steps[-1])
+            if eps < _EPS_MIN:
+                break
+    return X, f0
+
+
+
+
+def _direction(patch: _Patch, st: dict):
+    """The ascent direction of one patch at its current corners (``st``: its state in :func:`ascend_all`):
+    (d, |d|), reused while the active set stays the same."""
+    q = st["q"]
+    active = np.flatnonzero(q <= q.min() + st["eps"])
+    last = st["last"]
+    if last is None or not np.array_equal(active, last):
+        G = patch.gradients(active, st["th"][active], st["u"][active], st["w"][active]).reshape(active.shape[0], -1)
+        corral = st["corral"]
+        at = np.searchsorted(active, corral)
+        d, S = _min_norm(G, at[active[np.minimum(at, active.shape[0] - 1)] == corral].tolist())
+        st["corral"] = active[S]
+        st["d"], st["nd"] = d, float(np.sqrt(d @ d))
+        st["last"] = active
+    return st["d"], st["nd"]
+
+
+class _Batch:
+    """The corners, cells and floor rows of several patches in one set of arrays (patch after patch),
+    so that one evaluation scores every patch's trial steps: :meth:`score` is :meth:`_Patch.score`
+    of each patch, the same values bit for bit (per-patch minima and maxima by ``reduceat``)."""
+
+    def __init__(self, patches):
+        L = np.array([p.n + p.ext.shape[0] for p in patches])
+        C = np.array([p.lv.shape[0] for p in patches])
+        nq = np.array([p.nq for p in patches])
+        self.off = np.concatenate([[0], np.cumsum(L)])  # local node block of each patch
+        self.cst = np.concatenate([[0], np.cumsum(C)])  # corner block
+        qst = np.concatenate([[0], np.cumsum(nq)])
+        self.lv, self.ln, self.lp = (np.concatenate([getattr(p, a) + o for p, o in zip(patches, self.off)])
+                                     for a in ("lv", "ln", "lp"))
+        self.quad = np.concatenate([p.quad for p in patches])
+        self.any_quad = bool(nq.sum())
+        self.tri0 = np.concatenate([c + np.arange(p.ntri) for p, c in zip(patches, self.cst)])
+        if self.any_quad:
+            self.lq = np.concatenate([p.lq + o for p, o in zip(patches, self.off) if p.nq])
+        # the cells' areas patch by patch: its triangles (tri0) then its quads
+        self.aord = np.concatenate([np.concatenate([t0 + np.arange(p.ntri), self.tri0.shape[0] + q0 + np.arange(p.nq)])
+                                    for p, t0, q0 in zip(patches, np.concatenate([[0], np.cumsum([p.ntri for p in patches])]), qst)])
+        self.ast = np.concatenate([[0], np.cumsum([p.ntri + p.nq for p in patches])[:-1]])
+        rows = [(i, p.floor) for i, p in enumerate(patches) if p.floor is not None]
+        self.floor = None
+        if rows:
+            fc = np.concatenate([f[0] + self.cst[i] for i, f in rows])
+            fq = np.concatenate([f[1] for _, f in rows])
+            qc = np.minimum(np.concatenate([f[2] + qst[i] for i, f in rows]), max(int(qst[-1]) - 1, 0))
+            fa, f1, f2 = (np.concatenate([f[j] for _, f in rows]) for j in (3, 4, 5))
+            # a False column before every patch's rows, so that every reduceat segment is non-empty
+            cnt = np.zeros(len(patches), np.intp)
+            cnt[[i for i, _ in rows]] = [f[0].shape[0] for _, f in rows]
+            fst = np.concatenate([[0], np.cumsum(cnt + 1)[:-1]])
+            pos = np.concatenate([fst[i] + 1 + np.arange(f[0].shape[0]) for i, f in rows])
+            self.floor = (fc, fq, qc, fa, f1, f2, pos, fst, int(cnt.sum()) + len(patches))
+        self.cst = self.cst[:-1]
+
+    def score(self, Y, lo, hi):
+        """(K, patches) minimum corner quality at Y (K, all local nodes, 2), -inf where a patch is invalid
+        or breaks a limit; and the corners (K, all corners)."""
+        # x + iy: one gather fetches both, complex subtraction is the two real ones (the same bits)
+        z = Y.view(np.complex128)[..., 0]
+        v = np.take(z, self.lv, axis=1)
+        u = np.take(z, self.ln, axis=1) - v
+        w = np.take(z, self.lp, axis=1) - v
+        ux, uy, wx, wy = u.real, u.imag, w.real, w.imag
+        cr = ux * wy - uy * wx
+        th = np.arctan2(cr, ux * wx + uy * wy)
+        q = np.where(self.quad, np.minimum(th, np.pi - th), th) if self.any_quad else th
+        ok = np.minimum.reduceat(cr, self.cst, axis=1) > 0  # (cr > 0).all() per patch, NaN included
+        a = 0.5 * cr[:, self.tri0]
+        if self.any_quad:
+            c = np.take(z, self.lq, axis=1)
+            d02, d13 = c[..., 2] - c[..., 0], c[..., 3] - c[..., 1]
+            q2 = d02.real * d13.imag - d02.imag * d13.real  # _area2's diagonal formula
+            a = np.concatenate([a, 0.5 * q2], axis=1)
+        a = a[:, self.aord]
+        ok &= (np.minimum.reduceat(a, self.ast, axis=1) >= lo) & (np.maximum.reduceat(a, self.ast, axis=1) <= hi)
+        if self.floor is not None:
+            fc, fq, qc, fa, f1, f2, pos, fst, width = self.floor
+            a2 = cr[:, fc]
+            if self.any_quad:
+                a2 = np.where(fq, q2[:, qc], a2)
+            e1 = np.hypot(ux[:, fc], uy[:, fc])
+            e2 = np.hypot(wx[:, fc], wy[:, fc])
+            bad = np.zeros((Y.shape[0], width), bool)
+            bad[:, pos] = ~((a2 >= fa) & (e1 >= f1) & (e2 >= f2))
+            ok &= ~np.logical_or.reduceat(bad, fst, axis=1)
+        return np.where(ok, np.minimum.reduceat(q, self.cst, axis=1), -np.inf), (q, th, u, w)
+
+
+def ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
+    """``[_ascend(p, X, ...)[0] for p, X in zip(patches, Xs)]``, bit for bit, the patches in lockstep:
+    per ascent step one direction per live patch, then one :meth:`_Batch.score` of every trial step
+    of every patch (a patch that stopped, or takes no step this time, keeps its positions)."""
+    out = [np.asarray(X) for X in Xs]
+    states = {}
+    for i, (p, X) in enumerate(zip(patches, out)):
+        Y = p.positions(X[None])
+        lo, hi = _limits(p, Y, area_band, area_limits)
+        f, (q, th, cr, u, w) = p.score(Y, lo, hi)
+        f0 = float(f[0])
+        if np.isfinite(f0):
+            h = float(np.mean(np.sqrt((u[0] * u[0]).sum(1))))
+            states[i] = dict(lo=lo, hi=hi, f0=f0, h=h, t=0.1 * h, eps=eps, q=q[0], th=th[0], u=u[0], w=w[0],
+                             last=None, corral=np.zeros(0, np.intp))
+    if not states:
+        return out
+    batch = _Batch(patches)
+    Ycur = np.concatenate([p.positions(X[None])[0] for p, X in zip(patches, out)])
+    lo = np.array([states[i]["lo"] if i in states else -np.inf for i in range(len(patches))])
+    hi = np.array([states[i]["hi"] if i in states else np.inf for i in range(len(patches))])
+    for _ in range(iterations):
+        moving = {}
+        for i in list(states):
+            st = states[i]
+            d, nd = _direction(patches[i], st)
+            if nd < 1e-12:
+                st["eps"] *= 0.5
+                if st["eps"] < _EPS_MIN:
+                    del states[i]
+                continue
+            moving[i] = (st["t"] * _HALVINGS, (d / nd).reshape(-1, 2))
+        if not moving:
+            if not states:
+                break
+            continue
+        Ys = np.repeat(Ycur[None], 8, axis=0)
+        for i, (steps, dn) in moving.items():
+            o = batch.off[i]
+            Ys[:, o:o + patches[i].n] = out[i][None] + steps[:, None, None] * dn[None]
+        fs, (qs, ths, us, ws) = batch.score(Ys, lo, hi)
+        for i, (steps, _) in moving.items():
+            st = states[i]
+            k = np.flatnonzero(fs[:, i] > st["f0"] + _GAIN)
+            if k.size:
+                k = k[0]
+                o, n, c0 = batch.off[i], patches[i].n, batch.cst[i]
+                c1 = c0 + patches[i].lv.shape[0]
+                out[i] = Ys[k, o:o + n]
+                Ycur[o:o + n] = out[i]
+                st["f0"], st["t"] = float(fs[k, i]), min(2.0 * steps[k], 0.5 * st["h"])
+                st["q"], st["th"] = qs[k, c0:c1], ths[k, c0:c1]
+                st["u"], st["w"] = us[k, c0:c1, None].view(np.float64), ws[k, c0:c1, None].view(np.float64)
+                st["last"] = None
+            else:
+                st["eps"] *= 0.5
+                st["t"] = float(steps[-1])
+                if st["eps"] < _EPS_MIN:
+                    del states[i]
+        if not states:
+            break
+    return out
