@@ -159,3 +159,50 @@ def test_signed_areas_from_complex_gathers_equal_the_column_formula(name, monkey
     assert np.array_equal(orient.signed_areas(wide, tri, quad).view(np.int64), ref.view(np.int64))
     single = orient.signed_areas(pts.astype(np.float32), tri, quad)
     assert single.dtype == np.float64 and np.allclose(single, ref, rtol=1e-4, atol=1e-4)
+
+
+@pytest.mark.parametrize("name", [*MESHES, "layered-mixed"])
+def test_incidence_cells_are_the_cells_of_every_free_node(name):
+    """``tri_cell`` / ``quad_cell`` name the cell of every incidence row (its rotation starting at the
+    row's node), and the rows of a free node list every cell of that node once: what a slow per-node
+    scan of the cells finds."""
+    mesh = _layered_mixed() if name == "layered-mixed" else MESHES[name]()
+    topo = build_topology(mesh, np.arange(0, mesh.n_points, 7))
+    for cells, loc, verts, cell in ((topo.tri, topo.tri_loc, topo.tri_verts, topo.tri_cell),
+                                    (topo.quad, topo.quad_loc, topo.quad_verts, topo.quad_cell)):
+        assert cell.dtype == verts.dtype and cell.shape == loc.shape
+        for r in range(loc.shape[0]):
+            c = cells[cell[r]].tolist()
+            j = c.index(int(verts[r, 0]))
+            assert verts[r].tolist() == c[j:] + c[:j]
+        for i, v in enumerate(topo.free_nodes.tolist()):
+            want = [c for c in range(cells.shape[0]) if v in cells[c].tolist()]
+            assert sorted(cell[loc == i].tolist()) == want
+
+
+def test_release_drops_the_cache_entries_holding_an_object():
+    """The driver releases its input floors from the topology's caches after the passes (else a cache
+    entry keeps them alive as long as the topology); other entries stay."""
+    import gc
+    import weakref
+
+    from anglesmooth.driver import smooth
+
+    mesh = paper_mixed(1)
+    topo = build_topology(mesh)
+    marker = np.zeros(3)
+    ref = weakref.ref(marker)
+    topo._cache["a"] = (marker, 1)
+    topo._cache["b"] = marker
+    topo._cache["c"] = (np.zeros(1), 2)
+    topo.release(marker)
+    assert set(topo._cache) == {"c"}
+    del marker
+    gc.collect()
+    assert ref() is None
+    from anglesmooth.smoothers._floors import Floors
+
+    smooth(mesh, "angle", 2, topology=topo)
+    assert topo._cache  # the smoothers cached tables of the topology, but none holds the floors
+    assert not [v for v in topo._cache.values()
+                if isinstance(v, Floors) or (type(v) is tuple and any(isinstance(x, Floors) for x in v))]
