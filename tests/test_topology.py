@@ -108,9 +108,38 @@ def test_int32_tables_hold_the_int64_build_values(name, monkeypatch):
         elif f.name != "_cache":
             assert a == b, f.name
     for p, q in zip(small.blocks(), wide.blocks(), strict=True):
-        for f in fields(p):
-            a, b = getattr(p, f.name), getattr(q, f.name)
-            assert np.array_equal(a, b) if isinstance(a, np.ndarray) else a == b, f.name
+        for name in BLOCK_FIELDS:
+            a, b = getattr(p, name), getattr(q, name)
+            assert np.array_equal(a, b) if isinstance(a, np.ndarray) else a == b, name
+
+
+BLOCK_FIELDS = ("nodes", "ring", "spokes", "tris", "quads", "ring_count", "spoke_count", "tri_starts", "tri_has",
+                "quad_starts", "quad_has")
+
+
+@pytest.mark.parametrize("name", [*MESHES, "layered-mixed"])
+@pytest.mark.parametrize("order", ["colour", "jacobi"])
+def test_block_arrays_count_the_rows_of_each_node(name, order):
+    """The per-node arrays of a block (computed on first use) count and locate each node's rows, as a
+    per-node scan of the tables finds them; the slices hold exactly the block's rows."""
+    mesh = _layered_mixed() if name == "layered-mixed" else MESHES[name]()
+    topo = build_topology(mesh, np.arange(0, mesh.n_points, 6))
+    blocks = topo.blocks(order)
+    assert sum(b.size for b in blocks) == topo.n_free
+    for blk in blocks:
+        a = blk.nodes.start
+        for loc, rows, count in ((topo.ring_loc, blk.ring, blk.ring_count), (topo.spoke_loc, blk.spokes, blk.spoke_count),
+                                 (topo.tri_loc, blk.tris, None), (topo.quad_loc, blk.quads, None)):
+            assert np.array_equal(np.flatnonzero((loc >= a) & (loc < blk.nodes.stop)), np.arange(rows.start, rows.stop))
+            n = [int((loc == a + i).sum()) for i in range(blk.size)]
+            if count is not None:
+                assert count.tolist() == n
+        for loc, rows, starts, has in ((topo.tri_loc, blk.tris, blk.tri_starts, blk.tri_has),
+                                       (topo.quad_loc, blk.quads, blk.quad_starts, blk.quad_has)):
+            rel = (loc[rows] - a).tolist()
+            assert has.tolist() == [i in rel for i in range(blk.size)]
+            assert starts.tolist() == [rel.index(i) for i in range(blk.size) if i in rel]
+    assert topo.blocks(order) is blocks
 
 
 @pytest.mark.parametrize("name", ["layered-mixed", "distorted", "paper-mixed"])
@@ -206,3 +235,22 @@ def test_release_drops_the_cache_entries_holding_an_object():
     assert topo._cache  # the smoothers cached tables of the topology, but none holds the floors
     assert not [v for v in topo._cache.values()
                 if isinstance(v, Floors) or (type(v) is tuple and any(isinstance(x, Floors) for x in v))]
+
+
+@pytest.mark.parametrize("n, high", [(0, 5), (1, 0), (10, 3), (1000, 2**8 - 1), (1000, 2**8 + 1), (5000, 2**16 - 1),
+                                     (5000, 2**16 + 3), (20000, 2**20), (20000, 2**24 + 5), (3000, 2**30)])
+@pytest.mark.parametrize("dtype", [np.int32, np.int64])
+def test_rows_by_loc_radix_sort_equals_the_packed_key_sort(n, high, dtype):
+    """The radix sort of the incidence / diagonal rows by owner gives the rows and owners of the packed
+    int64 key sort (and of a lexsort), fixed owners (-1) dropped, for owners of one to four digits."""
+    from anglesmooth.topology._keys import _by_loc, _rows_by_loc
+
+    rng = np.random.default_rng(n + high)
+    loc = rng.integers(-1, high, n).astype(dtype) if high else np.full(n, -1, dtype)
+    owner, rows = _rows_by_loc(loc)
+    want = _by_loc(loc.copy(), max(n, 1), np.arange(n, dtype=np.int64))
+    keep = np.flatnonzero(loc >= 0)
+    lex = keep[np.lexsort((keep, loc[keep]))]
+    assert owner.dtype == rows.dtype == np.int64
+    assert np.array_equal(owner, want[0]) and np.array_equal(rows, want[1]) and np.array_equal(rows, lex)
+    assert np.array_equal(owner, loc[rows])
