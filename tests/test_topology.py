@@ -254,3 +254,39 @@ def test_rows_by_loc_radix_sort_equals_the_packed_key_sort(n, high, dtype):
     assert owner.dtype == rows.dtype == np.int64
     assert np.array_equal(owner, want[0]) and np.array_equal(rows, want[1]) and np.array_equal(rows, lex)
     assert np.array_equal(owner, loc[rows])
+
+
+def test_quad_verdict_measures_row_by_row_equal_the_whole_array_formulas():
+    """The quad scaled Jacobian and condition, computed one corner row at a time (bounded
+    temporaries), are the bits of the (4, n) whole-array formulas, zeros, -0.0, inf and nan included."""
+    from anglesmooth.quality import verdict as V
+    from anglesmooth.quality._corners import _Corners
+
+    def jac(c):
+        den = np.roll(c.length, 1, axis=0) * c.length
+        out = np.zeros(c.cross.shape)
+        np.divide(c.cross, den, out=out, where=den > 0)
+        return out.min(axis=0)
+
+    def cond(c):
+        l2 = c.length * c.length
+        out = np.full(c.cross.shape, V.VERDICT_DBL_MAX)
+        with np.errstate(invalid="ignore"):
+            np.divide(l2 + np.roll(l2, 1, axis=0), c.cross, out=out, where=c.cross > V._DBL_MIN)
+        out = out.max(axis=0) if out.size else np.zeros(c.cross.shape[1])
+        out *= 0.5
+        return np.minimum(out, V.VERDICT_DBL_MAX, out=out)
+
+    rng = np.random.default_rng(0)
+    for n in (0, 1, 7, 5000):
+        length, cross, u = np.abs(rng.normal(size=(4, n))), rng.normal(size=(4, n)), rng.random((4, n))
+        length[u < 0.05] = 0.0
+        cross[u > 0.95] = 0.0
+        cross[(u > 0.9) & (u <= 0.95)] = -0.0
+        cross[(u > 0.4) & (u < 0.41)] = np.nan
+        cross[(u > 0.5) & (u < 0.505)] = np.inf
+        length[(u > 0.6) & (u < 0.605)] = np.inf
+        c = _Corners(length, cross, np.zeros((4, n)))
+        with np.errstate(invalid="ignore"):
+            for got, want in ((V._quad_jac(c), jac(c)), (V._quad_condition(c), cond(c))):
+                assert got.shape == want.shape == (n,) and np.array_equal(got.view(np.int64), want.view(np.int64))
