@@ -108,9 +108,38 @@ def test_int32_tables_hold_the_int64_build_values(name, monkeypatch):
         elif f.name != "_cache":
             assert a == b, f.name
     for p, q in zip(small.blocks(), wide.blocks(), strict=True):
-        for f in fields(p):
-            a, b = getattr(p, f.name), getattr(q, f.name)
-            assert np.array_equal(a, b) if isinstance(a, np.ndarray) else a == b, f.name
+        for name in BLOCK_FIELDS:
+            a, b = getattr(p, name), getattr(q, name)
+            assert np.array_equal(a, b) if isinstance(a, np.ndarray) else a == b, name
+
+
+BLOCK_FIELDS = ("nodes", "ring", "spokes", "tris", "quads", "ring_count", "spoke_count", "tri_starts", "tri_has",
+                "quad_starts", "quad_has")
+
+
+@pytest.mark.parametrize("name", [*MESHES, "layered-mixed"])
+@pytest.mark.parametrize("order", ["colour", "jacobi"])
+def test_block_arrays_count_the_rows_of_each_node(name, order):
+    """The per-node arrays of a block (computed on first use) count and locate each node's rows, as a
+    per-node scan of the tables finds them; the slices hold exactly the block's rows."""
+    mesh = _layered_mixed() if name == "layered-mixed" else MESHES[name]()
+    topo = build_topology(mesh, np.arange(0, mesh.n_points, 6))
+    blocks = topo.blocks(order)
+    assert sum(b.size for b in blocks) == topo.n_free
+    for blk in blocks:
+        a = blk.nodes.start
+        for loc, rows, count in ((topo.ring_loc, blk.ring, blk.ring_count), (topo.spoke_loc, blk.spokes, blk.spoke_count),
+                                 (topo.tri_loc, blk.tris, None), (topo.quad_loc, blk.quads, None)):
+            assert np.array_equal(np.flatnonzero((loc >= a) & (loc < blk.nodes.stop)), np.arange(rows.start, rows.stop))
+            n = [int((loc == a + i).sum()) for i in range(blk.size)]
+            if count is not None:
+                assert count.tolist() == n
+        for loc, rows, starts, has in ((topo.tri_loc, blk.tris, blk.tri_starts, blk.tri_has),
+                                       (topo.quad_loc, blk.quads, blk.quad_starts, blk.quad_has)):
+            rel = (loc[rows] - a).tolist()
+            assert has.tolist() == [i in rel for i in range(blk.size)]
+            assert starts.tolist() == [rel.index(i) for i in range(blk.size) if i in rel]
+    assert topo.blocks(order) is blocks
 
 
 @pytest.mark.parametrize("name", ["layered-mixed", "distorted", "paper-mixed"])
@@ -159,3 +188,105 @@ def test_signed_areas_from_complex_gathers_equal_the_column_formula(name, monkey
     assert np.array_equal(orient.signed_areas(wide, tri, quad).view(np.int64), ref.view(np.int64))
     single = orient.signed_areas(pts.astype(np.float32), tri, quad)
     assert single.dtype == np.float64 and np.allclose(single, ref, rtol=1e-4, atol=1e-4)
+
+
+@pytest.mark.parametrize("name", [*MESHES, "layered-mixed"])
+def test_incidence_cells_are_the_cells_of_every_free_node(name):
+    """``tri_cell`` / ``quad_cell`` name the cell of every incidence row (its rotation starting at the
+    row's node), and the rows of a free node list every cell of that node once: what a slow per-node
+    scan of the cells finds."""
+    mesh = _layered_mixed() if name == "layered-mixed" else MESHES[name]()
+    topo = build_topology(mesh, np.arange(0, mesh.n_points, 7))
+    for cells, loc, verts, cell in ((topo.tri, topo.tri_loc, topo.tri_verts, topo.tri_cell),
+                                    (topo.quad, topo.quad_loc, topo.quad_verts, topo.quad_cell)):
+        assert cell.dtype == verts.dtype and cell.shape == loc.shape
+        for r in range(loc.shape[0]):
+            c = cells[cell[r]].tolist()
+            j = c.index(int(verts[r, 0]))
+            assert verts[r].tolist() == c[j:] + c[:j]
+        for i, v in enumerate(topo.free_nodes.tolist()):
+            want = [c for c in range(cells.shape[0]) if v in cells[c].tolist()]
+            assert sorted(cell[loc == i].tolist()) == want
+
+
+def test_release_drops_the_cache_entries_holding_an_object():
+    """The driver releases its input floors from the topology's caches after the passes (else a cache
+    entry keeps them alive as long as the topology); other entries stay."""
+    import gc
+    import weakref
+
+    from anglesmooth.driver import smooth
+
+    mesh = paper_mixed(1)
+    topo = build_topology(mesh)
+    marker = np.zeros(3)
+    ref = weakref.ref(marker)
+    topo._cache["a"] = (marker, 1)
+    topo._cache["b"] = marker
+    topo._cache["c"] = (np.zeros(1), 2)
+    topo.release(marker)
+    assert set(topo._cache) == {"c"}
+    del marker
+    gc.collect()
+    assert ref() is None
+    from anglesmooth.smoothers._floors import Floors
+
+    smooth(mesh, "angle", 2, topology=topo)
+    assert topo._cache  # the smoothers cached tables of the topology, but none holds the floors
+    assert not [v for v in topo._cache.values()
+                if isinstance(v, Floors) or (type(v) is tuple and any(isinstance(x, Floors) for x in v))]
+
+
+@pytest.mark.parametrize("n, high", [(0, 5), (1, 0), (10, 3), (1000, 2**8 - 1), (1000, 2**8 + 1), (5000, 2**16 - 1),
+                                     (5000, 2**16 + 3), (20000, 2**20), (20000, 2**24 + 5), (3000, 2**30)])
+@pytest.mark.parametrize("dtype", [np.int32, np.int64])
+def test_rows_by_loc_radix_sort_equals_the_packed_key_sort(n, high, dtype):
+    """The radix sort of the incidence / diagonal rows by owner gives the rows and owners of the packed
+    int64 key sort (and of a lexsort), fixed owners (-1) dropped, for owners of one to four digits."""
+    from anglesmooth.topology._keys import _by_loc, _rows_by_loc
+
+    rng = np.random.default_rng(n + high)
+    loc = rng.integers(-1, high, n).astype(dtype) if high else np.full(n, -1, dtype)
+    owner, rows = _rows_by_loc(loc)
+    want = _by_loc(loc.copy(), max(n, 1), np.arange(n, dtype=np.int64))
+    keep = np.flatnonzero(loc >= 0)
+    lex = keep[np.lexsort((keep, loc[keep]))]
+    assert owner.dtype == rows.dtype == np.int64
+    assert np.array_equal(owner, want[0]) and np.array_equal(rows, want[1]) and np.array_equal(rows, lex)
+    assert np.array_equal(owner, loc[rows])
+
+
+def test_quad_verdict_measures_row_by_row_equal_the_whole_array_formulas():
+    """The quad scaled Jacobian and condition, computed one corner row at a time (bounded
+    temporaries), are the bits of the (4, n) whole-array formulas, zeros, -0.0, inf and nan included."""
+    from anglesmooth.quality import verdict as V
+    from anglesmooth.quality._corners import _Corners
+
+    def jac(c):
+        den = np.roll(c.length, 1, axis=0) * c.length
+        out = np.zeros(c.cross.shape)
+        np.divide(c.cross, den, out=out, where=den > 0)
+        return out.min(axis=0)
+
+    def cond(c):
+        l2 = c.length * c.length
+        out = np.full(c.cross.shape, V.VERDICT_DBL_MAX)
+        with np.errstate(invalid="ignore"):
+            np.divide(l2 + np.roll(l2, 1, axis=0), c.cross, out=out, where=c.cross > V._DBL_MIN)
+        out = out.max(axis=0) if out.size else np.zeros(c.cross.shape[1])
+        out *= 0.5
+        return np.minimum(out, V.VERDICT_DBL_MAX, out=out)
+
+    rng = np.random.default_rng(0)
+    for n in (0, 1, 7, 5000):
+        length, cross, u = np.abs(rng.normal(size=(4, n))), rng.normal(size=(4, n)), rng.random((4, n))
+        length[u < 0.05] = 0.0
+        cross[u > 0.95] = 0.0
+        cross[(u > 0.9) & (u <= 0.95)] = -0.0
+        cross[(u > 0.4) & (u < 0.41)] = np.nan
+        cross[(u > 0.5) & (u < 0.505)] = np.inf
+        length[(u > 0.6) & (u < 0.605)] = np.inf
+        c = _Corners(length, cross, np.zeros((4, n)))
+        with np.errstate(invalid="ignore"):
+            for got, want in ((V._quad_jac(c), jac(c)), (V._quad_condition(c), cond(c))):
+                assert got.shape == want.shape == (n,) and np.array_equal(got.view(np.int64), want.view(np.int64))

@@ -162,6 +162,8 @@ def smooth(
             callback(done, pts, disp)
         if tol is not None and disp <= tol:
             break
+    if options.get("floors") is not None:
+        topo.release(options["floors"])  # the smoothers' caches let go of them: the caller keeps the topology
     pts = place_high_order(mesh, pts, topo.fixed)
     jit = _jit_seconds() - jit0
     return SmoothResult(

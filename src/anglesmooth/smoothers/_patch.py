@@ -75,19 +75,22 @@ BLOCK_FLOORED = False
 _CHUNK = 1 << 15  # cells per chunk of the numpy screen (its temporaries stay in the caches)
 
 
-def _csr(topo: Topology):
-    """(offsets, cell ids) of the cells of every node (tri ids first, quads after nt); cached."""
-    key = ("patch-node-cells",)
-    hit = topo._cache.get(key)
-    if hit is None:
-        nt = topo.n_tri
-        nodes = np.concatenate([topo.tri.ravel(), topo.quad.ravel()]).astype(np.intp)
-        ids = np.concatenate([np.repeat(np.arange(nt), 3), nt + np.repeat(np.arange(topo.n_quad), 4)])
-        order = np.argsort(nodes, kind="stable")
-        offs = np.zeros(topo.n_points + 1, np.intp)
-        np.cumsum(np.bincount(nodes, minlength=topo.n_points), out=offs[1:])
-        hit = topo._cache[key] = (offs, ids[order])
-    return hit
+def _csr(topo: Topology, nodes: np.ndarray) -> np.ndarray:
+    """Ids of the cells of the free ``nodes`` (triangles, then quads from nt; a shared cell repeated).
+
+    The incidence rows of a free node are one slice of ``topo.tri_loc`` / ``topo.quad_loc`` (found by
+    binary search), and ``topo.tri_cell`` / ``topo.quad_cell`` give their cells: no node -> cell table
+    of the whole mesh (at 1M triangles it took 0.4 s and 30 MB kept, 70 MB while sorted).
+    """
+    loc = _loc_of(topo)[nodes]
+    out = []
+    for table, cell, shift in ((topo.tri_loc, topo.tri_cell, 0), (topo.quad_loc, topo.quad_cell, topo.n_tri)):
+        lc = loc.astype(table.dtype)  # the needles in the table's own type (no conversion of the table)
+        lo = np.searchsorted(table, lc, "left")
+        n = np.searchsorted(table, lc, "right") - lo
+        rows = np.repeat(lo - (np.cumsum(n) - n), n) + np.arange(int(n.sum()))
+        out.append(cell[rows].astype(np.intp) + shift)
+    return np.concatenate(out)
 
 
 def cell_quality(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
@@ -209,7 +212,6 @@ def patch_moves(
     cand, qual = cand[keep], qual[keep]
     if not cand.size:
         return P
-    offs, cids = _csr(topo)
     used_cells = np.zeros(nt + topo.n_quad, bool)
     out = P.copy()
     done = 0
@@ -225,7 +227,7 @@ def patch_moves(
         for _ in range(rings):
             nb = np.concatenate([topo.ring_indices[topo.ring_offsets[v]:topo.ring_offsets[v + 1]] for v in nodes])
             nodes = np.union1d(nodes, nb[~blocked[nb]])
-        ids = np.unique(np.concatenate([cids[offs[v]:offs[v + 1]] for v in nodes]))
+        ids = np.unique(_csr(topo, nodes))
         done += 1
         if used_cells[ids].any():
             continue

@@ -40,7 +40,9 @@ Per-node tables
       both ideal angles: 1/2 for equal cell types, 3/5 for quad:triangle).
     * incidence (guards, quality): ``tri_loc``/``tri_verts`` (m, 3) and
       ``quad_loc``/``quad_verts`` (m, 4): each cell around a free node, its
-      nodes in counter-clockwise order starting at that node.
+      nodes in counter-clockwise order starting at that node; ``tri_cell`` /
+      ``quad_cell``: the row of ``tri`` / ``quad`` it is (so a free node's
+      rows give its cells: the node -> cells table of the patch moves).
 
     Index tables (node ids, locs, edges, ring entries, incidence rows) are
     int32 while every count fits (nodes and four times the corners below

@@ -7,7 +7,7 @@ from dataclasses import fields
 import numpy as np
 
 from ..mesh import Mesh2D
-from ._keys import _by_loc, _cell_shift, _stable_order
+from ._keys import _cell_shift, _rows_by_loc, _stable_order
 from .cells import _cell_topology
 from .colouring import _colour
 from .types import CellTopology, Topology
@@ -96,7 +96,7 @@ def _with_diagonals(quad: np.ndarray, loc_of: np.ndarray, nf: int, spokes):
     no_tri = np.zeros((0, 3), np.int64)
     e_loc = spokes[0]
     # the opposite corner's node as intp: numpy's fancy indexing with int32 indices is about 2x slower
-    d_loc, qc = _by_loc(loc_of[_cell_shift(no_tri, quad, 2, np.intp)], quad.size, np.arange(quad.size, dtype=np.int64))
+    d_loc, qc = _rows_by_loc(loc_of[_cell_shift(no_tri, quad, 2, np.intp)])
     ne = np.bincount(e_loc, minlength=nf)
     nd = np.bincount(d_loc, minlength=nf)
     off = np.zeros(nf + 1, np.int64)
@@ -139,7 +139,7 @@ def _with_diagonals(quad: np.ndarray, loc_of: np.ndarray, nf: int, spokes):
 
 
 def _incidence(cells: np.ndarray, loc_of: np.ndarray, free_nodes: np.ndarray):
-    """(loc, rotated cell) for every corner at a free node, sorted by (loc, rotation, cell)."""
+    """(loc, rotated cell, cell id) for every corner at a free node, sorted by (loc, rotation, cell)."""
     nc, k = cells.shape
     width = k * nc
     # ext[r], r = rotation * nc + cell, is the node of that corner; the nodes after it in
@@ -148,13 +148,14 @@ def _incidence(cells: np.ndarray, loc_of: np.ndarray, free_nodes: np.ndarray):
     ext = np.empty(width + (k - 1) * nc, idx)
     ext[:width].reshape(k, nc)[:] = cells.T
     ext[width:] = ext[: (k - 1) * nc]
-    loc, r = _by_loc(loc_of[ext[:width]], width, np.arange(width, dtype=np.int64))
+    loc, r = _rows_by_loc(loc_of[ext[:width]])
+    cell = np.remainder(r, nc, out=np.empty(r.shape[0], idx), casting="same_kind") if nc else r.astype(idx)
     verts = np.empty((r.shape[0], k), idx)
     verts[:, 0] = free_nodes[loc]  # the node itself
     for m in range(1, k):
         r += nc
         np.take(ext, r, out=verts[:, m], mode="clip")  # all in range; "clip" writes straight into the column
-    return loc.astype(idx), verts
+    return loc.astype(idx), verts, cell
 
 
 def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topology:
@@ -204,8 +205,8 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
     spoke_loc, spoke_ring, spoke_a, spoke_b, spoke_frac = spokes
     # incidence: every cell around a free node, rotated to start at that node;
     # row r = k * n_cells + cell (rotation k major), rows of one node in r order
-    tri_loc, tri_verts = _incidence(tri, loc_of, free_nodes)
-    quad_loc, quad_verts = _incidence(quad, loc_of, free_nodes)
+    tri_loc, tri_verts, tri_cell = _incidence(tri, loc_of, free_nodes)
+    quad_loc, quad_verts, quad_cell = _incidence(quad, loc_of, free_nodes)
 
     return Topology(
         **{f.name: getattr(cells, f.name) for f in fields(CellTopology)},
@@ -223,6 +224,8 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
         spoke_frac=spoke_frac,
         tri_loc=tri_loc,
         tri_verts=tri_verts,
+        tri_cell=tri_cell,
         quad_loc=quad_loc,
         quad_verts=quad_verts,
+        quad_cell=quad_cell,
     )

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -15,7 +16,9 @@ class Block:
 
     ``*_starts`` / ``*_has`` let ``np.minimum.reduceat`` reduce the incidence
     rows of the block per node (``has`` is False for a node with no row of that
-    cell type); ``*_count`` are the number of rows per node.
+    cell type); ``*_count`` are the number of rows per node.  These per-node
+    arrays are computed on first use and then kept: the compiled kernels read
+    the slices only (1M triangles: 0.1 s and 20 MB saved).
     """
 
     nodes: slice
@@ -23,16 +26,46 @@ class Block:
     spokes: slice
     tris: slice
     quads: slice
-    ring_count: np.ndarray
-    spoke_count: np.ndarray
-    tri_starts: np.ndarray
-    tri_has: np.ndarray
-    quad_starts: np.ndarray
-    quad_has: np.ndarray
+    _locs: tuple = field(repr=False)  # the topology's (ring_loc, spoke_loc, tri_loc, quad_loc)
 
     @property
     def size(self) -> int:
         return self.nodes.stop - self.nodes.start
+
+    def _count(self, table: int, rows: slice) -> np.ndarray:
+        return np.bincount(self._locs[table][rows] - self.nodes.start, minlength=self.size)
+
+    @cached_property
+    def ring_count(self) -> np.ndarray:
+        return self._count(0, self.ring)
+
+    @cached_property
+    def spoke_count(self) -> np.ndarray:
+        return self._count(1, self.spokes)
+
+    @cached_property
+    def _tri_starts(self):
+        return _starts(self._locs[2][self.tris] - self.nodes.start, self.size)
+
+    @cached_property
+    def _quad_starts(self):
+        return _starts(self._locs[3][self.quads] - self.nodes.start, self.size)
+
+    @property
+    def tri_starts(self) -> np.ndarray:
+        return self._tri_starts[0]
+
+    @property
+    def tri_has(self) -> np.ndarray:
+        return self._tri_starts[1]
+
+    @property
+    def quad_starts(self) -> np.ndarray:
+        return self._quad_starts[0]
+
+    @property
+    def quad_has(self) -> np.ndarray:
+        return self._quad_starts[1]
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,8 +122,10 @@ class Topology(CellTopology):
     spoke_frac: np.ndarray
     tri_loc: np.ndarray
     tri_verts: np.ndarray
+    tri_cell: np.ndarray  # the triangle (row of ``tri``) of every incidence row
     quad_loc: np.ndarray
     quad_verts: np.ndarray
+    quad_cell: np.ndarray  # the quad (row of ``quad``) of every incidence row
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -116,29 +151,19 @@ class Topology(CellTopology):
         else:
             raise ValueError(f"unknown update order {order!r} (use 'colour' or 'jacobi')")
         out = []
+        locs = (self.ring_loc, self.spoke_loc, self.tri_loc, self.quad_loc)
         for k in range(offs.shape[0] - 1):
             a, b = int(offs[k]), int(offs[k + 1])
-            ring, spokes = _span(self.ring_loc, a, b), _span(self.spoke_loc, a, b)
-            tris, quads = _span(self.tri_loc, a, b), _span(self.quad_loc, a, b)
-            ts, th = _starts(self.tri_loc[tris] - a, b - a)
-            qs, qh = _starts(self.quad_loc[quads] - a, b - a)
-            out.append(
-                Block(
-                    nodes=slice(a, b),
-                    ring=ring,
-                    spokes=spokes,
-                    tris=tris,
-                    quads=quads,
-                    ring_count=np.bincount(self.ring_loc[ring] - a, minlength=b - a),
-                    spoke_count=np.bincount(self.spoke_loc[spokes] - a, minlength=b - a),
-                    tri_starts=ts,
-                    tri_has=th,
-                    quad_starts=qs,
-                    quad_has=qh,
-                )
-            )
+            spans = [_span(loc, a, b) for loc in locs]
+            out.append(Block(slice(a, b), *spans, locs))
         self._cache[("blocks", order)] = out
         return out
+
+    def release(self, obj) -> None:
+        """Drop the cache entries that hold ``obj`` (data of one run, such as the input floors, which a
+        cache entry would otherwise keep alive as long as the topology: 70 MB at 1M triangles)."""
+        for key in [k for k, v in self._cache.items() if v is obj or (type(v) is tuple and any(x is obj for x in v))]:
+            del self._cache[key]
 
     def ring(self, node: int) -> np.ndarray:
         """Edge neighbours of one node (sorted)."""
@@ -155,5 +180,6 @@ def _starts(rel: np.ndarray, n: int):
 
 
 def _span(sorted_loc: np.ndarray, a: int, b: int) -> slice:
-    lo, hi = np.searchsorted(sorted_loc, [a, b])
+    # the needles in the table's own type: a list of ints would convert the whole table to int64 first
+    lo, hi = np.searchsorted(sorted_loc, np.array([a, b], sorted_loc.dtype))
     return slice(int(lo), int(hi))
