@@ -64,7 +64,7 @@ import numpy as np
 from ..topology import Topology
 from ._floors import Floors
 from . import _fast
-from ._patchascent import _Patch, ascend_all
+from ._patchascent import _Patch, _loc_of, ascend_all
 
 __all__ = ["patch_moves"]
 
