@@ -7,6 +7,7 @@ import os
 import click
 
 from .. import _paths, report
+from .._memory import release_free_memory
 from ..driver import smooth as run_smooth
 from ..errors import MeshReadError
 from ..fixing import fixed_mask
@@ -133,6 +134,7 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
         user_nodes = fix_node_indices(mesh, user_nodes, node_numbering) if user_nodes is not None else None
         topo = build_topology(mesh, fixed_mask(mesh, fix_group, user_nodes))
         before = summarize(mesh.points, topo)
+        release_free_memory()  # the build's and the summary's freed temporaries (1M triangles: 30 MB of peak)
         warn_invalid(console, name, before)
         note_fast(console, topo, passes)
         compiled = bool(passes) and fast_active(topo)
