@@ -100,23 +100,27 @@ MIN_CHUNK = 8192
 #: Chunks per thread: a thread on a busy core takes fewer of them instead of holding the others up.
 CHUNKS_PER_THREAD = 4
 
-#: Compile CPU time of each kernel's own code, s: a cold cache, one kernel per fresh process on the
-#: 2-core VM (``time.process_time``, numba's import excluded; 2026-12-02, start commit 86b70ea:
-#: angle_choose 4.15, compass 2.57, score 1.80, ring_mean 0.71, _cell_area_range 0.67,
-#: angle_target 0.90 s), less what every kernel of a process shares: numba's first compile in a
-#: process (:data:`_FIRST_COMPILE_S`) and the called helpers (:data:`_SHARED_S`), which compile
+#: Compile CPU time of each kernel's own code, s: a cold cache, one kernel (or the default ``angle``
+#: set) per fresh process on the 2-core VM (``time.process_time``, numba's import excluded;
+#: 2026-12-02, issue 17, a loaded VM: quiet figures are some 10 % lower), less what every kernel of
+#: a process shares: numba's first compile in a process and the overloads of numpy / builtins the
+#: kernels use (:data:`_FIRST_COMPILE_S`) and the called helpers (:data:`_SHARED_S`), which compile
 #: once per process.  Only for the estimate that :func:`compile_estimate` gives before a run;
 #: unknown kernels count :data:`_DEFAULT_COMPILE_S`.  ``angle_choose``'s figure holds its own
-#: helper ``_node_score`` (0.5 s).  ``_cell_area_range`` (:func:`area_limits`) is a mesh-wide loop,
-#: not split per node (hence private).  The default ``angle`` kernels in one process measured
-#: 6.7 s (7.3 s with ``score``); the estimate for them is 7.1 s.
-COMPILE_S = {"angle_choose": 3.0, "angle_optimize": 1.5, "compass": 1.5, "score": 0.7, "ring_mean": 0.4, "angle_target": 0.6,
-             "_cell_area_range": 0.4}
+#: helpers ``_node_certified`` (0.5 s) and ``_node_score`` (0.45 s).  ``_cell_area_range``
+#: (:func:`area_limits`) is a mesh-wide loop, not split per node (hence private).  The default
+#: ``angle`` kernels in one process measured 6.0 s with stage 5's screen (median of 3, loaded VM;
+#: 7.1 s before the helpers were called instead of inlined); the estimate for them is 5.5 s.
+COMPILE_S = {"angle_choose": 2.2, "angle_optimize": 1.0, "compass": 0.9, "score": 0.4, "ring_mean": 0.35,
+             "angle_target": 0.2, "_cell_area_range": 0.3}
 _DEFAULT_COMPILE_S = 2.0
-#: numba's first compile in a process (its own set-up), s: paid once, by whichever kernel is first
-_FIRST_COMPILE_S = 0.3
+#: numba's first compile in a process (its own set-up) and the shared overloads (``np.empty``,
+#: ``min`` / ``max`` of tuples), s: paid once, by whichever kernel is first
+_FIRST_COMPILE_S = 0.5
 #: called (not inlined) helpers and the kernels that call them: compiled once per process, s
-_SHARED_S = {"_node_score_rows": (0.8, ("angle_choose", "angle_optimize", "compass", "score"))}
+_SHARED_S = {"_node_score_rows": (0.9, ("angle_choose", "angle_optimize", "compass", "score")),
+             "_node_rows": (0.35, ("angle_choose", "angle_optimize", "compass", "score")),
+             "_node_angle": (0.25, ("angle_choose", "angle_target"))}
 #: The kernels a method's default run calls (for :func:`compile_estimate`; a hint, not a contract).
 METHOD_KERNELS = {
     "angle": ("angle_choose", "angle_optimize", "_cell_area_range"),

@@ -29,12 +29,17 @@ from ._local import _C30, INVALID, INVERTED_WEIGHT
 # reassociation or fused multiply-adds and the same rounding as numpy
 _OPTS = {"cache": True, "error_model": "numpy", "parallel": False, "nogil": True}
 _TWO_PI = 2 * np.pi
-# ``_node_score`` and ``_node_score_rows`` are ordinary compiled functions (the same error model),
-# called, not inlined by numba: ``inline="always"`` typed and optimized a fresh copy at each call
-# site (``_node_score_rows`` has six, in ``angle_choose``, ``compass`` and ``score``): a cold default
-# run compiled 13.7 s on the quiet 2-core VM with it inlined, 5.3 s called, for the same results
-# and per-pass times within the noise (200k triangles, numba, medians of 7).  They compile once per
-# process and are stored inside each cached kernel that calls them.  The small helpers stay inlined.
+# The per-node helpers decorated ``_helper`` are ordinary compiled functions (the same error model),
+# called, not inlined by numba: ``inline="always"`` types and lowers a fresh copy at each call site,
+# a called helper is typed once per process for every kernel that calls it (a real call per node:
+# the optimized kernels keep them as calls).  ``_node_score_rows`` (six call sites in ``angle_choose``, ``compass``, ``score``):
+# a cold default run compiled 13.7 s on the quiet 2-core VM inlined, 5.3 s called.  ``_node_rows``
+# (two call sites in ``angle_choose``, one in each other kernel), ``_node_angle`` and
+# ``_node_certified`` called too (issue 17): the cold default run's compile CPU 7.1 -> 6.0 s (loaded
+# VM, medians of 3; ``angle_optimize`` 1.7 -> 1.0 s, the rows' helper now shared), the same results
+# and per-pass CPU within the noise (200k triangles, 1 thread: 10 passes 1.09 vs 1.10 s, min of 9).
+# They compile once per process and are stored inside each cached kernel that calls them.  The
+# tiny helpers stay inlined (``_corner_ok`` called measured no faster to compile).
 _helper = njit(error_model="numpy", nogil=True)
 
 
@@ -114,6 +119,11 @@ def _node_score(pts, px, py, f, tp, tv, qp, qv, fl):
     return INVALID - bad if bad > 0 else best
 
 
+#: ``strict=False`` for :func:`_node_score_rows`: a numpy bool, which numba types ``bool`` like the
+#: per-node ``strict`` of ``compass``; a literal ``False`` (or a Python ``False`` global) is typed
+#: ``Literal[bool](False)``: a second compiled copy of the helper (0.6-0.7 s of a cold default run)
+_NOT_STRICT = np.False_
+
 #: columns of the per-node row scratch of :func:`_node_rows` (one row per incident cell)
 _ROW_COLS = 12
 
@@ -128,7 +138,7 @@ def _max_rows(nodes, tp, qp):
     return m
 
 
-@njit(inline="always")
+@_helper
 def _node_rows(pts, f, tp, tv, qp, qv, buf):
     """The part of ``_node_score`` that does not depend on the moving node, once per node, into ``buf``.
 
@@ -315,7 +325,7 @@ def score(pts, X, nodes, tp, tv, qp, qv, fl):
         f = nodes[i]
         _node_rows(pts, f, tp, tv, qp, qv, buf)
         for k in range(K):
-            out[k, i] = _node_score_rows(X[k, i, 0], X[k, i, 1], f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, False)
+            out[k, i] = _node_score_rows(X[k, i, 0], X[k, i, 1], f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, _NOT_STRICT)
     return out
 
 
@@ -338,7 +348,7 @@ def _cell_area_range(pts, tri, quad):
     return (np.nan, np.nan) if nan else (lo, hi)
 
 
-@njit(inline="always")
+@_helper
 def _node_angle(pts, f, free, sp, ring, sa, sb, frac):
     """``angle_target`` / ``_angle_sums`` for one node: the mean of its rotated spoke positions."""
     cx, cy = pts[free[f], 0], pts[free[f], 1]
@@ -423,7 +433,7 @@ def _corner_ok(d, q, cc):
     return (q > 1e-300) & (q < np.inf) & (d * d <= cc * q)
 
 
-@njit(inline="always")
+@_helper
 def _node_certified(pts, px, py, f, tp, tv, qp, qv, c):
     """True when ``_node_score`` at (px, py) is certainly valid and above ``-c`` (``c`` > 0; no floors):
     every incident cell passes ``_node_score``'s validity tests (the same expressions, so the same
@@ -491,7 +501,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
             continue
         if kp:  # staying is scored too: gather the cells once, score A from them (the same number)
             _node_rows(pts, f, tp, tv, qp, qv, buf)
-            s_a = _node_score_rows(ax, ay, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, False)
+            s_a = _node_score_rows(ax, ay, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, _NOT_STRICT)
         else:
             s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv, fl)
         refused[i] = s_a <= INVALID + 0.5
@@ -500,7 +510,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
         if not take and not kp:  # more candidates to score: gather the cells once
             _node_rows(pts, f, tp, tv, qp, qv, buf)
         if take and kp:
-            take = s_a >= _node_score_rows(cx, cy, f, tp, qp, buf, fl, s_a, -np.inf, np.inf, False)
+            take = s_a >= _node_score_rows(cx, cy, f, tp, qp, buf, fl, s_a, -np.inf, np.inf, _NOT_STRICT)
         if take:
             new[i, 0], new[i, 1], best[i] = ax, ay, s_a
             continue
@@ -522,7 +532,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
                 px, py = cx, cy
             # exact where it beats bs or, with near_ok, where it is good enough (a cut below good[i])
             cut = min(bs, good[i] - 1e-9) if near_ok else bs
-            sk = _node_score_rows(px, py, f, tp, qp, buf, fl, cut, -np.inf, np.inf, False)
+            sk = _node_score_rows(px, py, f, tp, qp, buf, fl, cut, -np.inf, np.inf, _NOT_STRICT)
             if k < 3:
                 stuck = stuck & (sk <= INVALID + 0.5)
             elif stuck:
@@ -541,7 +551,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
             fr = 1.0
             for _ in range(7):
                 px, py = cx + fr * dx, cy + fr * dy
-                sk = _node_score_rows(px, py, f, tp, qp, buf, fl, INVALID + 0.5, -np.inf, np.inf, False)  # exact where valid
+                sk = _node_score_rows(px, py, f, tp, qp, buf, fl, INVALID + 0.5, -np.inf, np.inf, _NOT_STRICT)  # exact where valid
                 if sk > INVALID + 0.5:
                     bx, by, bs = px, py, sk
                     break
@@ -618,7 +628,7 @@ def angle_optimize(pts, x, nodes, free, rp, nbr, tp, tv, qp, qv, best, iteration
         st = strict.shape[0] > 0 and strict[i] and tp[f + 1] > tp[f]
         if resume_iterations > 0 and tp[f + 1] == tp[f]:  # quads only
             cx, cy = pts[free[f], 0], pts[free[f], 1]
-            s_c = _node_score_rows(cx, cy, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, False)
+            s_c = _node_score_rows(cx, cy, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, _NOT_STRICT)
             if (s_c > best[i]) & (s_c >= resume_above):
                 px, py, its, r = cx, cy, resume_iterations, resume_radius * scale
         out[i, 0], out[i, 1], s_out[i] = _node_compass(px, py, f, tp, qp, buf, fl, r, its, band, directions,
