@@ -166,7 +166,7 @@ def test_jit_stats_tell_compiled_from_loaded(tmp_path):
 
 
 def test_stage_5_screen_compile_is_timed_apart(tmp_path):
-    # the default angle's stage-5 screen kernel (_patchkernels.maybe_below) compiles through _fast, so its
+    # the default angle's stage-5 screen kernel (_patchkernels._screen_below) compiles through _fast, so its
     # compile is in compile_s (and the report's compile time), not in the smoothing time
     code = (
         "import json\n"
@@ -176,7 +176,7 @@ def test_stage_5_screen_compile_is_timed_apart(tmp_path):
         "print(json.dumps(_fast.jit_stats()['compiled']))\n"
     )
     compiled = json.loads(_py(code, _env(tmp_path, ANGLESMOOTH_KERNEL="numba"), tmp_path).stdout)
-    assert "maybe_below" in compiled and "angle_choose" in compiled
+    assert "_screen_below" in compiled and "angle_choose" in compiled
 
 
 def test_cache_dir_follows_the_environment(monkeypatch, tmp_path):

@@ -110,9 +110,10 @@ CHUNKS_PER_THREAD = 4
 #: helpers ``_node_certified`` (0.5 s) and ``_node_score`` (0.45 s).  ``_cell_area_range``
 #: (:func:`area_limits`) is a mesh-wide loop, not split per node (hence private).  The default
 #: ``angle`` kernels in one process measured 6.0 s with stage 5's screen (median of 3, loaded VM;
-#: 7.1 s before the helpers were called instead of inlined); the estimate for them is 5.5 s.
+#: 7.1 s before the helpers were called instead of inlined); the estimate for them is 5.7 s
+#: (``_screen_below``: stage 5's screen, in :mod:`._patchkernels`, named here with the others).
 COMPILE_S = {"angle_choose": 2.2, "angle_optimize": 1.0, "compass": 0.9, "score": 0.4, "ring_mean": 0.35,
-             "angle_target": 0.2, "_cell_area_range": 0.3}
+             "angle_target": 0.2, "_cell_area_range": 0.3, "_screen_below": 0.2}
 _DEFAULT_COMPILE_S = 2.0
 #: numba's first compile in a process (its own set-up) and the shared overloads (``np.empty``,
 #: ``min`` / ``max`` of tuples), s: paid once, by whichever kernel is first
@@ -123,7 +124,7 @@ _SHARED_S = {"_node_score_rows": (0.9, ("angle_choose", "angle_optimize", "compa
              "_node_angle": (0.25, ("angle_choose", "angle_target"))}
 #: The kernels a method's default run calls (for :func:`compile_estimate`; a hint, not a contract).
 METHOD_KERNELS = {
-    "angle": ("angle_choose", "angle_optimize", "_cell_area_range"),
+    "angle": ("angle_choose", "angle_optimize", "_cell_area_range", "_screen_below"),
     "laplacian": ("ring_mean", "score"),
     "smart-laplacian": ("ring_mean", "score"),
     "optimization": ("ring_mean", "compass"),

@@ -201,5 +201,8 @@ def warm_up(kernels=None) -> None:
                            None, 1, 0.0625, 0.5)
     if "_cell_area_range" in want:
         area_limits(pts, topo)
+    if "_screen_below" in want:  # stage 5's screen, with the arguments _patch._maybe_below gives it
+        for cells in (topo.tri, topo.quad):
+            _run(_k()._screen_below, np.ascontiguousarray(pts[:, :2]), cells, 1.0)
 
 

@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit, prange
 
 from ._local import _C30, INVALID, INVERTED_WEIGHT
+from ._patchkernels import _screen_below  # noqa: F401 - stage 5's screen, named with the others (warm-up, estimate)
 
 # error_model="numpy": x / 0 gives inf / NaN as in numpy instead of raising; no fastmath, so no
 # reassociation or fused multiply-adds and the same rounding as numpy

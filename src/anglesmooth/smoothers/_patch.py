@@ -130,10 +130,10 @@ def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool
         return np.arange(m)
     t = np.tan(np.radians(below)) * (1.0 + 1e-6)
     if fast:  # the same test, compiled (``fast``: the mesh runs on the compiled kernels)
-        from ._patchkernels import maybe_below
+        from ._patchkernels import _screen_below
 
         # through _fast: its compile (0.2-0.4 s, the first run ever) is timed apart, as every kernel's
-        return np.flatnonzero(_fast._run(maybe_below, np.ascontiguousarray(points[:, :2]), cells, t))
+        return np.flatnonzero(_fast._run(_screen_below, np.ascontiguousarray(points[:, :2]), cells, t))
     # the edges e_c = p_{c+1} - p_c once (the corner's u is e_c, its w is -e_{c-1} exactly), so that
     # cross = uy ex - ux ey and |dot| = |ux ex + uy ey| with e = e_{c-1}: the same bits as from u and w
     z = np.ascontiguousarray(points[:, :2], dtype=np.float64).view(np.complex128).ravel()

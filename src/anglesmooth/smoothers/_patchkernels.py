@@ -25,7 +25,7 @@ def _corner_below(ux, uy, px, py, t):
 
 
 @_compiled
-def maybe_below(pts, cells, t):
+def _screen_below(pts, cells, t):
     """(m,) bool: some corner of the cell has cross < t * |dot| + 1e-300 (see ``_patch._maybe_below``);
     the edges e_c = p_{c+1} - p_c in scalars, the same operations as the numpy screen."""
     m, k = cells.shape
