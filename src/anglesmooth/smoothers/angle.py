@@ -97,8 +97,12 @@ The robust default (``guard=True``)
     style mixed 18.73 / 25.06 / 23.51 (22.43) -> 20.29 / 28.56 / 26.97
     (25.27), triangles 24.83 -> 26.79, graded 18.41 -> 20.61 (area ratio
     median 109 -> 148), quads 29.32 -> 29.99; every family still passes.
-    Cost: a fixed ~0.12 s CPU a pass (numpy, 100k triangles: 0.08-0.09 ->
-    0.20-0.23 s), 60 % of it the Frank-Wolfe loop of the min-norm direction.
+    Cost: first a fixed ~0.12 s CPU a pass (numpy, 100k triangles: 0.08-0.09 ->
+    0.20-0.23 s), 60 % of it a Frank-Wolfe loop for the min-norm direction;
+    with the exact direction (Wolfe's algorithm) and the patches of a pass
+    ascending in lockstep 9-15 ms a pass on either kernel (see :mod:`._patch`;
+    that changed the meshes: quality matrix paper-style triangles 27.4 ->
+    26.4, mixed 25.3 -> 25.7, quads 30.2 -> 33.1 deg, seeds 0-2).
     Alternatives: 4 patches instead of 8: mixed 24.84; Frank-Wolfe stopped
     at a 1e-3 relative gap and the active-set tolerance at 2e-3 rad
     (cheaper, 100k pass 0.22 s): mixed 24.83.  Patch nodes within one ring instead of two (post-hoc
