@@ -175,16 +175,23 @@ class _Patch:
         return G[:, : self.n]
 
 
+def _solve_checked(A, b):
+    try:
+        return np.linalg.solve(A, b)
+    except np.linalg.LinAlgError:
+        return np.full(b.shape, np.nan)
+
+
+_solve = _solve_checked
 try:  # np.linalg.solve's own kernel without its wrapper (a third of a small solve's time); NaN if singular
     from numpy.linalg._umath_linalg import solve1 as _solve1
 
-    _solve = _solve1
-except ImportError:  # pragma: no cover - another numpy layout
-    def _solve(A, b):
-        try:
-            return np.linalg.solve(A, b)
-        except np.linalg.LinAlgError:
-            return np.full(b.shape, np.nan)
+    with np.errstate(all="ignore"):  # a private kernel: used only if it still solves as np.linalg.solve
+        if np.array_equal(_solve1(np.array([[2.0, 1.0], [1.0, 3.0]]), np.array([3.0, 5.0])),
+                          _solve_checked(np.array([[2.0, 1.0], [1.0, 3.0]]), np.array([3.0, 5.0]))):
+            _solve = _solve1
+except Exception:  # noqa: BLE001 - another numpy layout or signature: the public solve
+    pass
 
 
 def _min_norm(G: np.ndarray, start=()) -> tuple[np.ndarray, list]:
