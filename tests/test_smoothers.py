@@ -714,18 +714,25 @@ def test_default_does_not_shear_boundary_layer_quads_to_lift_triangles():
 # --------------------------------------------------------------------------- patch moves (stage 5)
 
 
-@pytest.mark.parametrize("gen_name,seed", [("paper_mixed_mesh", 0), ("paper_triangle_mesh", 2), ("graded_mesh", 1)])
-def test_patch_moves_match_the_per_patch_reference(gen_name, seed):
-    """Stage 5 (``smoothers._patch``) against the plain-loop reference, floors and area limits included."""
+def _stage5_inputs(gen_name, seed, passes):
+    """(mesh, topology, input floors, points after ``passes`` default passes without stage 5, the
+    mesh's area range there): what stage 5 gets at the end of the next pass."""
     from anglesmooth.smoothers._floors import input_floors
-    from anglesmooth.smoothers._patch import patch_moves
 
     mesh = getattr(generate, gen_name)(seed=seed)
     topo = build_topology(mesh)
     floors = input_floors(np.array(mesh.points), topo)
-    p = smooth(mesh, "angle", 3, topology=topo, patch_cells=0).points
+    p = smooth(mesh, "angle", passes, topology=topo, patch_cells=0).points
     a = signed_areas(p, topo.tri, topo.quad)
-    limits = (float(a.min()), float(a.max()))
+    return mesh, topo, floors, p, (float(a.min()), float(a.max()))
+
+
+@pytest.mark.parametrize("gen_name,seed", [("paper_mixed_mesh", 0), ("paper_triangle_mesh", 2), ("graded_mesh", 1)])
+def test_patch_moves_match_the_per_patch_reference(gen_name, seed):
+    """Stage 5 (``smoothers._patch``) against the plain-loop reference, floors and area limits included."""
+    from anglesmooth.smoothers._patch import patch_moves
+
+    mesh, topo, floors, p, limits = _stage5_inputs(gen_name, seed, passes=3)
     got = patch_moves(p, topo, floors, cells=4, iterations=12, area_limits=limits)
     want = reference_patch_moves(p, topo, floors, cells=4, iterations=12, area_limits=limits)
     assert np.abs(got - p).max() > 1e-3 * np.ptp(mesh.points)  # something moved
@@ -738,14 +745,8 @@ def test_patch_ascent_of_all_patches_at_once_is_that_of_each_alone(gen_name, see
     """Stage 5 moves a pass's patches in lockstep (one evaluation of every patch's trial steps): the
     same positions, bit for bit, as the ascent of each patch alone (floors and area limits included)."""
     from anglesmooth.smoothers import _patch, _patchascent
-    from anglesmooth.smoothers._floors import input_floors
 
-    mesh = getattr(generate, gen_name)(seed=seed)
-    topo = build_topology(mesh)
-    floors = input_floors(np.array(mesh.points), topo)
-    p = smooth(mesh, "angle", 2, topology=topo, patch_cells=0).points
-    a = signed_areas(p, topo.tri, topo.quad)
-    limits = (float(a.min()), float(a.max()))
+    mesh, topo, floors, p, limits = _stage5_inputs(gen_name, seed, passes=2)
     seen = []
 
     def spy(patches, xs, *args):
