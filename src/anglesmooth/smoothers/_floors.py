@@ -113,7 +113,7 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
     marked: there the rule held the well-shaped input nodes of the paper-style quad meshes where
     they were, so Table 5's surface error (improvement over Laplacian, f1 / f2 / f3, seeds 0-9)
     was 9.9 / 8.2 / 2.4 % against 13.0 / 10.5 / 3.9 % without it, and the quad families did not need
-    it (good quads' maximum angle 125.6 -> 124.3 deg without it; see :mod:`.angle`).
+    it (good quads' maximum angle 125.6 -> 124.3 deg without it; see docs/default_method.md).
     """
     n = points.shape[0]
     z = np.ascontiguousarray(points, dtype=np.float64).view(np.complex128).reshape(n)  # x + iy of every node
