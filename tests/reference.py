@@ -138,14 +138,14 @@ def reference_keep(points, topo, keep_quad=30.0, keep_tri=40.0, keep_rect=15.0, 
     deg, quad corners within ``keep_quad`` deg of a right angle) or that has a near-rectangular
     (corners within ``keep_rect`` deg) quad whose longest edge is >= ``keep_stretch`` x its shortest;
     only a node with a triangle or a corner of a quad with such a node (``quads_too``: every node, the
-    former rule).
+    former rule); a node among quads only: when every quad of it is near-rectangular.
     """
     p = [list(map(float, x)) for x in points]
     inc = incident(cells_of(topo), len(p))
     out = []
     for i in map(int, topo.free_nodes):
         has_tri = any(any(len(d) == 3 for d in inc[v]) for c in inc[i] for v in c)
-        good, stretched = True, False
+        good, stretched, all_rect = True, False, True
         for c in inc[i]:
             k = len(c)
             ang = [corner_angle(p, c[m], c[m - 1], c[(m + 1) % k]) for m in range(k)]
@@ -157,7 +157,8 @@ def reference_keep(points, topo, keep_quad=30.0, keep_tri=40.0, keep_rect=15.0, 
                 good &= dev <= math.radians(keep_quad)
                 e = [math.dist(p[c[m]], p[c[(m + 1) % 4]]) for m in range(4)]
                 stretched |= dev <= math.radians(keep_rect) and max(e) >= keep_stretch * min(e)
-        out.append((has_tri or quads_too) and (good or stretched))
+                all_rect &= dev <= math.radians(keep_rect)
+        out.append((good or stretched) if (has_tri or quads_too) else all_rect)
     return np.array(out, dtype=bool)
 
 

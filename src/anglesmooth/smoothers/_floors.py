@@ -109,17 +109,21 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
     ``angle`` moves them to the angle position only where that does not lower their local quality,
     so that the good parts of a mesh (boundary layers made on purpose, already-good meshes) never
     get worse (measured: the angle rule's 45:45 split of a quad's diagonal shears the outer
-    boundary-layer quads beside triangles from 93 to 129 deg).  Nodes among quads only are never
-    marked: there the rule held the well-shaped input nodes of the paper-style quad meshes where
-    they were, so Table 5's surface error (improvement over Laplacian, f1 / f2 / f3, seeds 0-9)
-    was 9.9 / 8.2 / 2.4 % against 13.0 / 10.5 / 3.9 % without it, and the quad families did not need
-    it (good quads' maximum angle 125.6 -> 124.3 deg without it; see docs/default_method.md).
+    boundary-layer quads beside triangles from 93 to 129 deg).  Nodes among quads only are marked
+    only when every quad of theirs is near-rectangular (``KEEP_RECT``): the inner layers of a
+    boundary layer.  Marking every well-shaped one there held the well-shaped input nodes of the
+    paper-style quad meshes where they were, so Table 5's surface error (improvement over
+    Laplacian, f1 / f2 / f3, seeds 0-9) was 9.9 / 8.2 / 2.4 % against 13.0 / 10.5 / 3.9 % with no
+    rule among quads only (12.1 / 10.4 / 3.7 % with the near-rectangular one); but with no rule there
+    a gmsh boundary layer of five quad layers around a hole (input 39.2 / 103.9 deg) ended at
+    36.3-41.3 / 127-140 deg instead of 41.8-42.9 / 108-110 (six meshes; see docs/default_method.md).
     """
     n = points.shape[0]
     z = np.ascontiguousarray(points, dtype=np.float64).view(np.complex128).reshape(n)  # x + iy of every node
     poor = np.zeros(n, bool)  # per point: some cell of it is not well shaped
     keep_q = np.zeros(n, bool)  # per point: a corner of a near-rectangular stretched quad
     an_node = np.zeros(n, bool)  # per point: a corner of an anisotropic cell
+    not_rect = np.zeros(n, bool)  # per point: a quad of it is not near-rectangular
     # in chunks of cells / rows: element-wise, so the same values, with temporaries of a bounded size
     for all_cells in (topo.tri, topo.quad):
         k = all_cells.shape[1]
@@ -132,13 +136,15 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
             poor[cells[~good].ravel()] = True
             if k == 4:
                 keep_q[cells[rect & (emax >= KEEP_STRETCH * emin)].ravel()] = True
-    # only nodes with a triangle and the other corners of their quads: elsewhere, among quads only, the
-    # rule cost Table 5's size uniformity and the quad meshes did not need it (see the docstring)
+                not_rect[cells[~rect].ravel()] = True
+    # near triangles (a node with a triangle, the other corners of its quads): well shaped or a stretched
+    # near-rectangular quad; among quads only: every quad near-rectangular (the inner layers of a boundary
+    # layer), not merely well shaped (that held uniform quad meshes in place: Table 5, see the docstring)
     near_tri = np.zeros(n, bool)
     near_tri[topo.tri.ravel()] = True
     if topo.quad.shape[0]:
         near_tri[topo.quad[near_tri[topo.quad].any(axis=1)].ravel()] = True
-    keep = ((~poor | keep_q) & near_tri)[topo.free_nodes]
+    keep = np.where(near_tri, ~poor | keep_q, ~not_rect)[topo.free_nodes]
     # the six columns are views of one zero-filled (6, rows) array, the kernels' ``packed``: written
     # only where a floor applies (np.zeros pages that are never written take no memory)
     nrow = (topo.tri_verts.shape[0], topo.quad_verts.shape[0])
