@@ -48,9 +48,11 @@ The robust default (``guard=True``)
        paper's size uniformity.  Nodes near triangles (a triangle's, or a
        corner of a quad that has one) whose input cells were all well shaped
        (quad corners within 30 deg of a right angle, triangle corners >= 40
-       deg, or a stretched well-shaped quad: see
-       :func:`._floors.input_floors`) take it only if it is also no worse
-       than staying, so the good parts of a mesh never get worse.
+       deg, or a stretched well-shaped quad), and nodes among quads only
+       whose quads are all within 15 deg of right angles (the inner layers
+       of a boundary layer; see :func:`._floors.input_floors`), take it only
+       if it is also no worse than staying, so the good parts of a mesh
+       never get worse.
     2. *Otherwise the nearest good one, else the best of five*: of the
        Laplacian position L, (A+L)/2, (A+C)/2 and the current position C, the
        one nearest A whose local quality is at least the acceptance
