@@ -1,6 +1,6 @@
 """Mesh families for the quality matrix (``quality_matrix.py``), made the way users get them.
 
-Each family builds one mesh per seed, deterministically (except ``boundary-layer``: gmsh's 2D
+Each family builds one mesh per seed, deterministically (except the boundary layers: gmsh's 2D
 BoundaryLayer meshing differs by a node or two from call to call, and from session to session by
 more: its full-size seeds 0-2 are therefore committed in ``benchmarks/meshes/`` and read from there,
 so that every run of the matrix judges the same meshes): gmsh (through its Python API, into a
@@ -32,6 +32,9 @@ Families (``FAMILIES``; sizes at full size, ``tiny=True`` gives coarse versions 
 * ``graded``: :func:`anglesmooth.generate.graded_mesh` (the paper's Figure 11 mesh).
 * ``boundary-layer``: a channel with a cylinder, gmsh ``BoundaryLayer`` field with ``Quads=1``
   (thin quads around the cylinder, triangles elsewhere); jitter 0.1 of the nodes outside the layer.
+* ``boundary-layer-hole``: a plate with a hole, a ``BoundaryLayer`` of about five layers of quads
+  stretched up to 10:1 around it and coarse triangles elsewhere, not jittered (the inner layers' nodes
+  have quads only: the default once sheared them to 127-140 deg; committed, like ``boundary-layer``).
 * ``paper-tri``, ``paper-mixed``, ``paper-quad``: the paper-style meshes of
   ``benchmarks/paper/paper_experiments.py`` (``MESHES``), used as they are (no jitter).
 * ``good-tri``, ``good-quad``: gmsh meshes of the elliptic plate with holes, uniform size
@@ -343,6 +346,30 @@ def boundary_layer_mesh(h: float, seed: int = 0) -> Mesh2D:
         return _mesh_and_read(gmsh, quads=False, algorithm=6)
 
 
+def hole_layer_mesh(h: float, seed: int = 0) -> Mesh2D:
+    """A plate with a hole; gmsh BoundaryLayer field (Quads=1) of about five layers around the hole, the
+    size elsewhere ``h``: the layer's inner nodes have quads only, the quads stretched up to 10:1."""
+    with _Gmsh("blhole") as gmsh:
+        occ = gmsh.model.occ
+        plate = occ.addRectangle(0, 0, 0, 2, 1)
+        hole = occ.addDisk(0.6 + 0.02 * seed, 0.5, 0, 0.2, 0.2)
+        (surf,), _ = occ.cut([(2, plate)], [(2, hole)])
+        occ.synchronize()
+        curves = [t for _, t in gmsh.model.getBoundary([surf], oriented=False)]
+        circle = [t for t in curves if abs(occ.getCenterOfMass(1, t)[0] - (0.6 + 0.02 * seed)) < 1e-6]
+        gmsh.model.addPhysicalGroup(2, [surf[1]], 1)
+        fld = gmsh.model.mesh.field
+        bl = fld.add("BoundaryLayer")
+        fld.setNumbers(bl, "CurvesList", circle)
+        fld.setNumber(bl, "Size", h / 10)
+        fld.setNumber(bl, "Ratio", 1.3)
+        fld.setNumber(bl, "Thickness", 0.08)
+        fld.setNumber(bl, "Quads", 1)
+        fld.setAsBoundaryLayer(bl)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        return _mesh_and_read(gmsh, quads=False)
+
+
 def _outside_layer(mesh: Mesh2D) -> np.ndarray:
     cx, cy = _BL_CENTRE
     r = np.hypot(mesh.points[:, 0] - cx, mesh.points[:, 1] - cy)
@@ -382,6 +409,10 @@ def _bl(seed, tiny):
     return jitter(mesh, 0.1, seed, movable=_outside_layer(mesh))
 
 
+def _blhole(seed, tiny):
+    return hole_layer_mesh(_h(0.1, tiny) * _factor(seed), seed)
+
+
 def _paper(kind):
     def build(seed, tiny):
         return paper_experiments.MESHES[kind](seed=seed)
@@ -412,6 +443,8 @@ FAMILIES: dict[str, Family] = {
                min_angle_target=18.0),
         Family("boundary-layer", "mixed", "gmsh BoundaryLayer quads around a cylinder + triangles, jitter 0.1 outside",
                _bl),
+        Family("boundary-layer-hole", "mixed",
+               "gmsh BoundaryLayer of ~5 stretched quad layers around a hole + coarse triangles, not jittered", _blhole),
         Family("paper-tri", "tri", "paper_triangle_mesh (paper Table 1)", _paper("triangle"), paper=True,
                min_angle_target=24.0),
         Family("paper-mixed", "mixed", "paper_mixed_mesh (paper Table 2)", _paper("mixed"), paper=True,
