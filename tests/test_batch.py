@@ -300,7 +300,7 @@ def test_jobs_2_is_bit_identical_to_serial(work, monkeypatch):
 
 def test_worker_initializer_limits_numba_threads_and_ignores_ctrl_c():
     code = ("import os, signal; os.environ.pop('NUMBA_NUM_THREADS', None)\n"
-            "from anglesmooth.batch import _init_worker\n"
+            "from anglesmooth.batch._executors import _init_worker\n"
             "_init_worker(1)\n"
             "import numba\n"
             "print(os.environ['NUMBA_NUM_THREADS'], numba.config.NUMBA_NUM_THREADS, numba.get_num_threads(),\n"

@@ -200,7 +200,7 @@ def test_a_pool_worker_defers_sigterm_while_numba_compiles(monkeypatch):
     then unwinds the task (the atomic write removes its temporary file) and exits 143."""
     from anglesmooth import batch
 
-    monkeypatch.setitem(batch._WORKER, "busy", True)
-    monkeypatch.setitem(batch._WORKER, "stop", False)
-    _deferring(monkeypatch, batch._on_stop, batch._Stop)
-    assert batch._WORKER["stop"]
+    monkeypatch.setitem(batch._executors._WORKER, "busy", True)
+    monkeypatch.setitem(batch._executors._WORKER, "stop", False)
+    _deferring(monkeypatch, batch._executors._on_stop, batch._executors._Stop)
+    assert batch._executors._WORKER["stop"]
