@@ -70,6 +70,7 @@ class BlockGeometry:
             layout = topo._cache.get(key)
             if layout is None:
                 layout = topo._cache[key] = _layout(topo, blk, None)
+            self._key, self._cache = key[1:], topo._cache
         else:
             layout = _layout(topo, blk, subset)
         self.n, self._t, self.t_rel, t_v, self._q, self.q_rel, q_v, t_ids, q_ids = layout
@@ -106,17 +107,41 @@ class BlockGeometry:
     _QUAD_FLOORS = ("q_fa", "q_f1", "q_f3")
 
     def restrict(self, subset: np.ndarray) -> BlockGeometry:
-        """The same geometry for the (sorted) node indices ``subset`` only, without gathering again."""
-        remap = np.full(self.n, -1, np.int64)
-        remap[subset] = np.arange(subset.shape[0])
+        """The same geometry for the (sorted) node indices ``subset`` only, without gathering again.
+
+        A subset of at most ``_SMALL_SUBSET`` rows (the usual case: the few nodes that choose among
+        five candidates, the keep test, the worst nodes) takes its rows straight from each node's
+        run of rows (:meth:`_starts`: every node's rows are contiguous in the layout), in O(subset)
+        instead of a remap over all the block's rows: the same rows in the same order.
+        """
         g = object.__new__(BlockGeometry)
         g.n = subset.shape[0]
         g.floors = self.floors
         fl = self.floors
+        remap = None
         for rel_name, rows_name, names in (
             ("t_rel", "_t", self._TRI + (self._TRI_FLOORS if fl else ())),
             ("q_rel", "_q", self._QUAD + (self._QUAD_FLOORS if fl else ())),
         ):
+            first, counts = self._starts(rel_name)
+            c = counts[subset]
+            m = int(c.sum())
+            if m <= _SMALL_SUBSET:
+                # node k's rows in layout order, node after node: what the remap, flatnonzero and stable
+                # argsort below give for a ragged chunk
+                ends = np.cumsum(c)
+                keep = np.repeat(first[subset] - (ends - c), c) + np.arange(m)
+                rel = np.repeat(np.arange(g.n), c)
+                rows = _Rows(rel, g.n, _SMALL_SUBSET)
+                setattr(g, rows_name, rows)
+                setattr(g, rel_name, rel[rows.perm])
+                keep = keep[rows.perm]
+                for name in names:
+                    setattr(g, name, getattr(self, name)[keep])
+                continue
+            if remap is None:
+                remap = np.full(self.n, -1, np.int64)
+                remap[subset] = np.arange(subset.shape[0])
             rel = remap[getattr(self, rel_name)]
             keep = np.flatnonzero(rel >= 0)
             rows = _Rows(rel[keep], g.n, _SMALL_SUBSET)
@@ -126,6 +151,29 @@ class BlockGeometry:
             for name in names:
                 setattr(g, name, getattr(self, name)[keep])
         return g
+
+    def _starts(self, rel_name: str) -> tuple[np.ndarray, np.ndarray]:
+        """(first row, number of rows) of every node in the rows ``rel_name`` (``t_rel`` / ``q_rel``): each
+        node's rows are contiguous (see :class:`_Rows`).  Topology only: cached with the layout of a whole
+        block, computed once per geometry otherwise."""
+        hit = self.__dict__.get("_starts_" + rel_name)
+        if hit is None:
+            key = None if self._key is None else ("geometry-starts", rel_name) + self._key
+            hit = None if key is None else self._cache.get(key)
+            if hit is None:
+                rel = getattr(self, rel_name)
+                counts = np.bincount(rel, minlength=self.n)
+                first = np.zeros(self.n, np.int64)
+                if rel.shape[0]:
+                    brk = np.flatnonzero(np.concatenate([[True], rel[1:] != rel[:-1]]))
+                    first[rel[brk]] = brk
+                hit = (first, counts)
+                if key is not None:
+                    self._cache[key] = hit
+            self.__dict__["_starts_" + rel_name] = hit
+        return hit
+
+    _key = None  # (block start, stop) of a whole block's geometry: its row starts are cached with the topology
 
     def score(self, X: np.ndarray, band: tuple | None = None, strict: np.ndarray | None = None) -> np.ndarray:
         """Local score of every node at candidate positions ``X`` (..., n, 2) -> (..., n).
@@ -300,10 +348,34 @@ def geometry(points: np.ndarray, topo: Topology, blk: Block, floors: Floors | No
 # targets
 
 
-def laplacian_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
-    """Centroid of the edge neighbours of each block node, (n, 2)."""
+def _ring_subset(topo: Topology, blk: Block, subset: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(ring entries, their subset-local node) of the block-local nodes ``subset``: each node's entries
+    in ring order (the table is sorted by node), so per-node sums over them add in the same order as over
+    the whole block's ring."""
+    count = blk.ring_count[subset]
+    offs = topo._cache.get(("ring-offsets", blk.nodes.start, blk.nodes.stop))
+    if offs is None:
+        offs = topo._cache[("ring-offsets", blk.nodes.start, blk.nodes.stop)] = (
+            np.cumsum(blk.ring_count) - blk.ring_count + blk.ring.start)
+    ends = np.cumsum(count)
+    entries = np.repeat(offs[subset] - (ends - count), count) + np.arange(int(ends[-1]) if ends.size else 0)
+    return entries, np.repeat(np.arange(subset.shape[0]), count)
+
+
+def laplacian_target(points: np.ndarray, topo: Topology, blk: Block, subset: np.ndarray | None = None) -> np.ndarray:
+    """Centroid of the edge neighbours of each block node, (n, 2), or of the block-local nodes ``subset`` only."""
     if _fast.active(topo):
-        return _fastcalls.laplacian_target(points, topo, blk)
+        out = _fastcalls.laplacian_target(points, topo, blk)
+        return out if subset is None else out[subset]
+    if subset is not None:
+        entries, rel = _ring_subset(topo, blk, subset)
+        nb = np.take(points, topo.ring_nbr[entries], axis=0)
+        n = subset.shape[0]
+        out = np.empty((n, 2))
+        out[:, 0] = np.bincount(rel, weights=nb[:, 0], minlength=n)
+        out[:, 1] = np.bincount(rel, weights=nb[:, 1], minlength=n)
+        out /= blk.ring_count[subset][:, None]
+        return out
     a = blk.nodes.start
     rel = intp(topo, "ring_loc")[blk.ring] - a
     nb = np.take(points, intp(topo, "ring_nbr")[blk.ring], axis=0)
@@ -397,17 +469,14 @@ def local_scale(points: np.ndarray, topo: Topology, blk: Block, subset: np.ndarr
     if _fast.active(topo):
         return _fastcalls.local_scale(points, topo, blk, subset)
     a = blk.nodes.start
-    loc = intp(topo, "ring_loc")[blk.ring]
-    nbr = intp(topo, "ring_nbr")[blk.ring]
-    count = blk.ring_count
-    n = blk.size
     if subset is not None:
-        remap = np.full(n, -1, np.int64)
-        remap[subset] = np.arange(subset.shape[0])
-        keep = remap[loc - a] >= 0
-        loc, nbr, count, n = loc[keep], nbr[keep], count[subset], subset.shape[0]
-        rel = remap[loc - a]
+        entries, rel = _ring_subset(topo, blk, subset)
+        loc, nbr, count, n = topo.ring_loc[entries], topo.ring_nbr[entries], blk.ring_count[subset], subset.shape[0]
     else:
+        loc = intp(topo, "ring_loc")[blk.ring]
+        nbr = intp(topo, "ring_nbr")[blk.ring]
+        count = blk.ring_count
+        n = blk.size
         rel = loc - a
     d = np.take(points, nbr, axis=0) - np.take(points, intp(topo, "free_nodes")[loc], axis=0)
     ln = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])

@@ -293,7 +293,7 @@ def step(
         rest = np.flatnonzero(~take)
         if rest.size:
             # stage 2: the others choose among all five candidates (the first best wins)
-            lap = laplacian_target(pts, topo, blk)[rest]
+            lap = laplacian_target(pts, topo, blk, subset=rest)
             t, c = target[rest], cur[rest]
             sub = geom if rest.size == blk.size else geom.restrict(rest)
             extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c), c])
