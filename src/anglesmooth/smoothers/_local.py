@@ -107,47 +107,36 @@ class BlockGeometry:
     _QUAD_FLOORS = ("q_fa", "q_f1", "q_f3")
 
     def restrict(self, subset: np.ndarray) -> BlockGeometry:
-        """The same geometry for the (sorted) node indices ``subset`` only, without gathering again.
+        """The same geometry for the node indices ``subset`` only, without gathering again.
 
-        A subset of at most ``_SMALL_SUBSET`` rows (the usual case: the few nodes that choose among
-        five candidates, the keep test, the worst nodes) takes its rows straight from each node's
-        run of rows (:meth:`_starts`: every node's rows are contiguous in the layout), in O(subset)
-        instead of a remap over all the block's rows: the same rows in the same order.
+        Each node's rows are taken straight from its run of rows (:meth:`_starts`: every node's rows
+        are contiguous in the layout), in O(subset) instead of a remap over all the block's rows, in
+        the order a remap, ``flatnonzero`` and :class:`_Rows` give for sorted ``subset``.
         """
-        g = object.__new__(BlockGeometry)
-        g.n = subset.shape[0]
-        g.floors = self.floors
-        fl = self.floors
-        remap = None
-        for rel_name, rows_name, names in (
-            ("t_rel", "_t", self._TRI + (self._TRI_FLOORS if fl else ())),
-            ("q_rel", "_q", self._QUAD + (self._QUAD_FLOORS if fl else ())),
-        ):
+        picks = []
+        for rel_name in ("t_rel", "q_rel"):
             first, counts = self._starts(rel_name)
             c = counts[subset]
-            m = int(c.sum())
-            if m <= _SMALL_SUBSET:
-                # node k's rows in layout order, node after node: what the remap, flatnonzero and stable
-                # argsort below give for a ragged chunk
-                ends = np.cumsum(c)
-                keep = np.repeat(first[subset] - (ends - c), c) + np.arange(m)
-                rel = np.repeat(np.arange(g.n), c)
-                rows = _Rows(rel, g.n, _SMALL_SUBSET)
-                setattr(g, rows_name, rows)
-                setattr(g, rel_name, rel[rows.perm])
-                keep = keep[rows.perm]
-                for name in names:
-                    setattr(g, name, getattr(self, name)[keep])
-                continue
-            if remap is None:
-                remap = np.full(self.n, -1, np.int64)
-                remap[subset] = np.arange(subset.shape[0])
-            rel = remap[getattr(self, rel_name)]
-            keep = np.flatnonzero(rel >= 0)
-            rows = _Rows(rel[keep], g.n, _SMALL_SUBSET)
-            keep = keep[rows.perm]
+            ends = np.cumsum(c)
+            m = int(ends[-1]) if ends.size else 0
+            picks.append(np.repeat(first[subset] - (ends - c), c) + np.arange(m))
+            picks.append(np.repeat(np.arange(subset.shape[0]), c))
+        return self.pick(subset.shape[0], *picks)
+
+    def pick(self, n: int, t_keep: np.ndarray, t_rel: np.ndarray, q_keep: np.ndarray, q_rel: np.ndarray) -> BlockGeometry:
+        """A geometry of ``n`` nodes made of the rows ``t_keep`` / ``q_keep`` of this one, the row ``t_keep[j]``
+        belonging to node ``t_rel[j]`` (``t_rel`` sorted, each node's rows in the order given)."""
+        g = object.__new__(BlockGeometry)
+        g.n = n
+        g.floors = fl = self.floors
+        for keep, rel, rel_name, rows_name, names in (
+            (t_keep, t_rel, "t_rel", "_t", self._TRI + (self._TRI_FLOORS if fl else ())),
+            (q_keep, q_rel, "q_rel", "_q", self._QUAD + (self._QUAD_FLOORS if fl else ())),
+        ):
+            rows = _Rows(rel, n, _SMALL_SUBSET)
             setattr(g, rows_name, rows)
-            setattr(g, rel_name, rel[keep])
+            setattr(g, rel_name, rel[rows.perm])
+            keep = keep[rows.perm]
             for name in names:
                 setattr(g, name, getattr(self, name)[keep])
         return g
