@@ -153,6 +153,46 @@ def test_numpy_speedups_give_the_same_numbers(name, monkeypatch):
     assert checked_out > 0  # some candidates left the band
 
 
+@pytest.mark.parametrize("name", ["graded", "mixed", "quads"])
+def test_numpy_subset_shortcuts_give_the_same_numbers(name, monkeypatch):
+    """The numpy kernels' subset shortcuts against their plain forms, with input floors: ``restrict``
+    (each node's run of rows) against the layout built for the subset, scored plainly and in an area
+    band (tested row by row in ``score``), and the ring entries of a subset against the whole block's
+    ``laplacian_target`` / ``local_scale``; tangled candidates, so invalid and inverted cells count too."""
+    from anglesmooth.smoothers import _local
+    from anglesmooth.smoothers._floors import input_floors
+
+    monkeypatch.setenv("ANGLESMOOTH_KERNEL", "numpy")
+    mesh = MESHES[name]()
+    topo = build_topology(mesh)
+    floors = input_floors(np.array(mesh.points), topo)
+    assert floors.active
+    pts = tangled(mesh, seed=5).points
+    rng = np.random.default_rng(6)
+    invalid = 0
+    for blk in topo.blocks():
+        if blk.size < 4:
+            continue
+        cur = pts[topo.free_nodes[blk.nodes]]
+        sub = np.sort(rng.choice(blk.size, blk.size // 3, replace=False))
+        X = cur[sub][None] + rng.normal(scale=0.03 * np.ptp(pts), size=(8, sub.size, 2))
+        geom = BlockGeometry(pts, topo, blk, floors=floors)
+        fresh = BlockGeometry(pts, topo, blk, subset=sub, floors=floors)
+        lo0, hi0 = fresh.area_range(cur[sub])
+        lo0, hi0 = 0.8 * lo0, hi0 / 0.8
+        got = geom.restrict(sub)
+        for g in (got, got.restrict(np.arange(0, sub.size, 2))):
+            k = np.arange(0, sub.size, 2) if g is not got else np.arange(sub.size)
+            ref = fresh.score(X)[:, k]
+            np.testing.assert_array_equal(g.score(X[:, k]), ref)
+            np.testing.assert_array_equal(g.banded_score(X[:, k], lo0[k], hi0[k]), fresh.banded_score(X, lo0, hi0)[:, k])
+            invalid += int((ref < -2.5).sum())
+        np.testing.assert_array_equal(_local.laplacian_target(pts, topo, blk, subset=sub),
+                                      _local.laplacian_target(pts, topo, blk)[sub])
+        np.testing.assert_array_equal(_local.local_scale(pts, topo, blk, subset=sub), _local.local_scale(pts, topo, blk)[sub])
+    assert invalid > 0
+
+
 @pytest.mark.parametrize("name", ["triangles", "quads", "mixed"])
 def test_kernels_agree_on_random_candidates_valid_invalid_and_degenerate(name, monkeypatch):
     monkeypatch.setenv("ANGLESMOOTH_KERNEL", "numpy")

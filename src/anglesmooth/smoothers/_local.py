@@ -182,8 +182,11 @@ class BlockGeometry:
         best = np.full((K, self.n), np.inf)
         bad = np.zeros((K, self.n))
         if band is not None:
-            lo = np.full((K, self.n), np.inf)
-            hi = np.full((K, self.n), -np.inf)
+            # a node leaves the band where one of its rows does: min / max over its rows compared with
+            # the bounds, row by row (a NaN area or bound leaves it either way)
+            b_lo, b_hi = (np.broadcast_to(np.asarray(b, dtype=np.float64), (self.n,)) for b in band)
+            out_band = np.zeros((K, self.n), bool)
+        fresh = True  # no row reduced into ``best`` yet (min(inf, v) is v: the first chunk of all nodes assigns)
         with np.errstate(divide="ignore", invalid="ignore"):
             for rows, kernel, area, rel in (
                 (self._t, self._tri_chunk, self._tri_area, self.t_rel),
@@ -192,6 +195,11 @@ class BlockGeometry:
                 for r0, r1, nodes, d in rows.chunks:
                     # small chunks take several candidates at once (fewer, larger numpy calls)
                     kb = max(1, _CHUNK // (r1 - r0))
+                    whole = fresh and kb >= K and nodes.shape[0] == self.n  # nodes: sorted, distinct
+                    fresh = False
+                    starts = d if isinstance(d, int) else np.cumsum(d) - d
+                    if band is not None:
+                        r_lo, r_hi = b_lo[rel[r0:r1]], b_hi[rel[r0:r1]]
                     for k0 in range(0, K, kb):
                         k1 = min(k0 + kb, K)
                         px = np.repeat(x0[k0:k1, nodes], d, axis=1)
@@ -199,10 +207,15 @@ class BlockGeometry:
                         vals, ok, ar = kernel(px, py, r0, r1, band is not None)
                         if q_strict is not None and rel is self.q_rel:
                             vals = np.where(q_strict[r0:r1], strict_quad(vals), vals)
-                        best[k0:k1, nodes] = np.minimum(best[k0:k1, nodes], _rowreduce(vals, d))
+                        if whole:
+                            best[:] = _rowreduce(vals, d, starts=starts)
+                        else:
+                            best[k0:k1, nodes] = np.minimum(best[k0:k1, nodes], _rowreduce(vals, d, starts=starts))
                         if band is not None:
-                            lo[k0:k1, nodes] = np.minimum(lo[k0:k1, nodes], _rowreduce(ar, d))
-                            hi[k0:k1, nodes] = np.maximum(hi[k0:k1, nodes], _rowreduce(ar, d, np.maximum))
+                            left = ~((ar >= r_lo) & (ar <= r_hi))
+                            if left.any():
+                                kk, rr = np.nonzero(left)
+                                out_band[k0 + kk, rel[r0 + rr]] = True
                         if not ok.all():
                             # an inverted cell (area <= 0) weighs more than any number of
                             # other invalid (non-convex) cells: swapping one for the other
@@ -214,7 +227,7 @@ class BlockGeometry:
                             bad[k0:k1] += cnt.reshape(k1 - k0, self.n)
         out = np.where(bad > 0, INVALID - bad, best)
         if band is not None:
-            out = np.where((lo >= band[0]) & (hi <= band[1]), out, -np.inf)
+            out[out_band] = -np.inf
         return out.reshape(lead + (self.n,))
 
     def _has_tris(self) -> np.ndarray:

@@ -78,13 +78,14 @@ class _Rows:
                 r += (k1 - k0) * d
 
 
-def _rowreduce(vals: np.ndarray, d, ufunc=np.minimum) -> np.ndarray:
+def _rowreduce(vals: np.ndarray, d, ufunc=np.minimum, starts=None) -> np.ndarray:
     """``ufunc``-reduce every ``d`` consecutive values along the last axis: (..., m * d) -> (..., m).
 
-    ``d`` may also be an array of run lengths (a ragged chunk of :class:`_Rows`).
+    ``d`` may also be an array of run lengths (a ragged chunk of :class:`_Rows`; ``starts``: their
+    ``np.cumsum(d) - d`` if the caller has it).
     """
     if not isinstance(d, int):
-        return ufunc.reduceat(vals, np.cumsum(d) - d, axis=-1)
+        return ufunc.reduceat(vals, np.cumsum(d) - d if starts is None else starts, axis=-1)
     w = vals.reshape(vals.shape[:-1] + (-1, d))
     out = w[..., 0].copy()
     for j in range(1, d):
