@@ -562,10 +562,13 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
 
 
 @njit(inline="always")
-def _node_compass(px, py, f, tp, qp, buf, fl, r, iterations, band, directions, alo, ahi, strict):
+def _node_compass(px, py, f, tp, qp, buf, fl, r, iterations, band, directions, alo, ahi, strict, s_start):
     """``optimize``'s compass search for one node from (px, py), its cells in ``buf`` (:func:`_node_rows`),
-    starting radius ``r``: (x, y, score)."""
-    s0 = _node_score_rows(px, py, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, strict)
+    starting radius ``r``: (x, y, score).  ``s_start``: the score at (px, py) if the caller has it (the
+    very number ``_node_score_rows`` gives), else NaN."""
+    s0 = s_start
+    if s0 != s0:
+        s0 = _node_score_rows(px, py, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, strict)
     lo0, hi0 = -np.inf, np.inf  # no band
     if band >= 0:
         lr, hr = _node_area_range_rows(px, py, f, tp, qp, buf)
@@ -604,7 +607,7 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
         _node_rows(pts, f, tp, tv, qp, qv, buf)
         st = strict.shape[0] > 0 and strict[i] and tp[f + 1] > tp[f]
         out[i, 0], out[i, 1], s_out[i] = _node_compass(x[i, 0], x[i, 1], f, tp, qp, buf, fl, radius * scale[i],
-                                                       iterations, band, directions, alo, ahi, st)
+                                                       iterations, band, directions, alo, ahi, st, np.nan)
     return out, s_out
 
 
@@ -615,8 +618,9 @@ def angle_optimize(pts, x, nodes, free, rp, nbr, tp, tv, qp, qv, best, iteration
     local scale (``local_scale``), the resume test of a quad-only node (staying scores above ``best``,
     its stage 1-2 score, and at least ``resume_above``: ``resume_iterations`` steps from there from
     ``resume_radius``; ``resume_iterations`` 0: never) and else the compass search from ``x`` (the
-    stage 1-2 choice), ``iterations`` steps from ``radius``, ``strict`` as in :func:`compass`.
-    The same numbers as ``local_scale``, ``score`` and two ``compass`` calls."""
+    stage 1-2 choice), ``iterations`` steps from ``radius``, ``strict`` as in :func:`compass`; ``best`` must
+    be the exact score of ``x`` (the search starts from it, and from ``s_c`` when it resumes, unless the
+    node is strict).  The same numbers as ``local_scale``, ``score`` and two ``compass`` calls."""
     n = nodes.shape[0]
     out = np.empty((n, 2))
     s_out = np.empty(n)
@@ -627,11 +631,13 @@ def angle_optimize(pts, x, nodes, free, rp, nbr, tp, tv, qp, qv, best, iteration
         scale, _ = _node_ring_mean(pts, f, free, rp, nbr, True)
         px, py, its, r = x[i, 0], x[i, 1], iterations, radius * scale
         st = strict.shape[0] > 0 and strict[i] and tp[f + 1] > tp[f]
+        # the search starts from the stage 1-2 choice, whose (non-strict) score is best[i]
+        s_start = np.nan if st else best[i]
         if resume_iterations > 0 and tp[f + 1] == tp[f]:  # quads only
             cx, cy = pts[free[f], 0], pts[free[f], 1]
             s_c = _node_score_rows(cx, cy, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, _NOT_STRICT)
             if (s_c > best[i]) & (s_c >= resume_above):
-                px, py, its, r = cx, cy, resume_iterations, resume_radius * scale
+                px, py, its, r, s_start = cx, cy, resume_iterations, resume_radius * scale, s_c
         out[i, 0], out[i, 1], s_out[i] = _node_compass(px, py, f, tp, qp, buf, fl, r, its, band, directions,
-                                                       alo, ahi, st)
+                                                       alo, ahi, st, s_start)
     return out, s_out
