@@ -18,6 +18,7 @@ def optimize(
     area_band: float | None = None,
     area_limits: tuple[float, float] | None = None,
     strict: np.ndarray | None = None,
+    start_score: np.ndarray | None = None,
 ):
     """Local max-min-angle optimization by compass (pattern) search, vectorized over nodes.
 
@@ -40,11 +41,15 @@ def optimize(
     of the pass).  ``strict`` (per node, bool): those nodes score their quad corners with
     :func:`strict_quad` where they also have triangles (see ``angle.step``'s ``strict_quads``).
     ``iterations`` and ``radius`` may also be one value per node (numpy kernels only).
-    Returns (positions, scores).
+    ``start_score``: the score at ``x`` if the caller has it (numpy kernels, without ``strict``: the
+    same numbers the search would compute).  Returns (positions, scores).
     """
     if isinstance(geom, _fastcalls.FastGeometry):  # the same search, one compiled loop per node
         return geom.compass(x, scale, iterations, radius, area_band, _COMPASS, area_limits, strict)
-    s0 = geom.score(x, strict=strict)
+    if start_score is None or (strict is not None and np.any(strict)):
+        s0 = geom.score(x, strict=strict)
+    else:
+        s0 = np.array(start_score, dtype=np.float64)
     lo0 = hi0 = None
     if area_band is not None:
         lr, hr = geom.area_range(x)

@@ -352,7 +352,7 @@ def step(
                 return new, refused
             sub = geom.restrict(worst)
             scale = local_scale(pts, topo, blk, subset=worst)
-            start, its, rad = new[worst], opt_iterations, 0.25
+            start, its, rad, s_start = new[worst], opt_iterations, 0.25, best[worst]  # best: exact at new
             if resume_iterations > 0:
                 # a quad node that scores higher staying (optimized in the previous pass, pulled back by
                 # stages 1-2) and is already good there resumes the search from there, finer and longer
@@ -363,10 +363,10 @@ def step(
                     s_c = (sub if q.size == worst.size else sub.restrict(q)).score(cur[worst[q]])
                     b = q[(s_c > best[worst[q]]) & (s_c >= -np.cos(np.radians(resume_above)))]
                     if b.size:
-                        start[b] = cur[worst[b]]
+                        start[b], s_start[b] = cur[worst[b]], s_c[np.searchsorted(q, b)]
                         its, rad = np.full(worst.size, opt_iterations), np.full(worst.size, 0.25)
                         its[b], rad[b] = resume_iterations, resume_radius
-            new[worst], _ = optimize(sub, start, scale, its, rad, area_band, limits, strict)
+            new[worst], _ = optimize(sub, start, scale, its, rad, area_band, limits, strict, s_start)
         return new, refused
 
     res = run_blocks(points, topo, order, update)
