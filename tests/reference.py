@@ -443,8 +443,15 @@ def _ref_min_norm(G):
 
 
 def reference_patch_moves(points, topo, floors=None, below=30.0, cells=8, rings=2, iterations=30, eps=2.0,
-                          area_band=0.8, area_limits=None):
-    """Stage 5 of the default ``angle`` (``smoothers._patch``), patch by patch with plain loops."""
+                          area_band=0.8, area_limits=None, size=None):
+    """Stage 5 of the default ``angle`` (``smoothers._patch``), patch by patch with plain loops.
+
+    ``size``: every cell of a patch also counts in its minimum as ``S`` x its area, S = below (rad) /
+    (size x the input's median cell area, ``floors.area_median``), with the area's gradient in the
+    ascent direction's hull (the corners first, then the cells)."""
+    S = None
+    if size and floors is not None and floors.area_median > 0:
+        S = math.radians(below) / (size * floors.area_median)
     p = [tuple(map(float, x)) for x in points]
     allc = cells_of(topo)
     nb = neighbours(allc, len(p))
@@ -508,7 +515,7 @@ def reference_patch_moves(points, topo, floors=None, below=30.0, cells=8, rings=
             for vv, fa, f1, f2 in rows:
                 if 2 * area(q, vv) < fa or math.dist(q[vv[1]], q[vv[0]]) < f1 or math.dist(q[vv[-1]], q[vv[0]]) < f2:
                     return -math.inf
-            return min(x[0] for x in cs)
+            return min(x[0] for x in cs) if S is None else min(min(x[0] for x in cs), min(S * a for a in ar))
 
         f0 = score(p)
         if not math.isfinite(f0):
@@ -517,7 +524,8 @@ def reference_patch_moves(points, topo, floors=None, below=30.0, cells=8, rings=
         t, e = 0.1 * h, math.radians(eps)
         for _ in range(iterations):
             cs = [_corner_q(p, c, m) for c, m in corners]
-            qmin = min(x[0] for x in cs)
+            sz = [] if S is None else [S * area(p, c) for c in pc]
+            qmin = min([x[0] for x in cs] + sz)
             G = []
             for (c, m), (qq, th, cr, u, w) in zip(corners, cs):
                 if qq > qmin + e:
@@ -531,6 +539,16 @@ def reference_patch_moves(points, topo, floors=None, below=30.0, cells=8, rings=
                     if node in slot:
                         g[2 * slot[node]] += vec[0]
                         g[2 * slot[node] + 1] += vec[1]
+                G.append(g)
+            for c, v in zip(pc, sz):  # the cells' size terms: d(2 area)/d p_i = (y_{i+1} - y_{i-1}, x_{i-1} - x_{i+1})
+                if v > qmin + e:
+                    continue
+                g = [0.0] * (2 * len(nodes))
+                for i, node in enumerate(c):
+                    if node in slot:
+                        nx, pv = p[c[(i + 1) % len(c)]], p[c[i - 1]]
+                        g[2 * slot[node]] += 0.5 * S * (nx[1] - pv[1])
+                        g[2 * slot[node] + 1] += 0.5 * S * (pv[0] - nx[0])
                 G.append(g)
             d = _ref_min_norm(G)
             nd = math.sqrt(sum(x * x for x in d))

@@ -4,7 +4,8 @@ An angle-only objective cannot see a thin quad being flattened (a boundary-layer
 angles while its height goes to zero), so every guarded method gets, from the driver, per incidence
 row the smallest area and edge lengths the row's cell may reach: a fixed fraction of its *input*
 values, for the cells that are anisotropic in the input.  The same pass over the input also marks
-the nodes near triangles whose cells are all well shaped (see :attr:`Floors.keep`).  The score kernels of
+the nodes near triangles whose cells are all well shaped (see :attr:`Floors.keep`), and takes the input's
+median cell area (stage 5's size scale, :attr:`Floors.area_median`).  The score kernels of
 :mod:`._local` and :mod:`._fastkernels` apply the floors.
 """
 
@@ -45,6 +46,7 @@ class Floors(NamedTuple):
     q_e3: np.ndarray
     packed: np.ndarray
     keep: np.ndarray  # (n_free,) bool: a node near triangles, every input cell well shaped (see below)
+    area_median: float = 0.0  # the input's median cell area (stage 5's size scale, :mod:`._patch`); 0: none
 
     @property
     def active(self) -> bool:
@@ -70,13 +72,15 @@ def _edge_lengths(px, py):
 
 
 def _cell_shape(z: np.ndarray, cells: np.ndarray):
-    """(edge lengths (k, n), well shaped (n,), near-rectangular (n,) or None) of (n, k) ccw cells.
+    """(edge lengths (k, n), well shaped (n,), near-rectangular (n,) or None, twice the signed area (n,))
+    of (n, k) ccw cells.
 
     Edge m runs from corner m to m + 1; well shaped: every corner within ``KEEP_QUAD`` of a right
     angle (quads) or at least ``KEEP_TRI`` (triangles); near-rectangular: within ``KEEP_RECT``.
     """
     k = cells.shape[1]
-    ex, ey, e = _edge_lengths(*_gather(z, cells))
+    px, py = _gather(z, cells)
+    ex, ey, e = _edge_lengths(px, py)
     good = np.ones(cells.shape[0], bool)
     rect = np.ones(cells.shape[0], bool) if k == 4 else None
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -89,7 +93,7 @@ def _cell_shape(z: np.ndarray, cells: np.ndarray):
                 rect &= (np.abs(cos) <= np.cos(np.radians(90.0 - KEEP_RECT))) & ok
             else:
                 good &= (cos <= np.cos(np.radians(KEEP_TRI))) & ok
-    return e, good, rect
+    return e, good, rect, _area2(px, py)
 
 
 def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, aniso: float = ANISO) -> Floors:
@@ -120,6 +124,7 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
     """
     n = points.shape[0]
     z = np.ascontiguousarray(points, dtype=np.float64).view(np.complex128).reshape(n)  # x + iy of every node
+    areas = []  # |area| of every input cell (for the median only)
     poor = np.zeros(n, bool)  # per point: some cell of it is not well shaped
     keep_q = np.zeros(n, bool)  # per point: a corner of a near-rectangular stretched quad
     an_node = np.zeros(n, bool)  # per point: a corner of an anisotropic cell
@@ -129,7 +134,8 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
         k = all_cells.shape[1]
         for c0 in range(0, all_cells.shape[0], _CHUNK):
             cells = all_cells[c0 : c0 + _CHUNK]
-            e, good, rect = _cell_shape(z, cells)
+            e, good, rect, a2 = _cell_shape(z, cells)
+            areas.append(0.5 * np.abs(a2))
             emax, emin = np.max(e, axis=0), np.min(e, axis=0)
             an = emax >= aniso * emin
             an_node[cells[an].ravel()] = True
@@ -159,7 +165,16 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
             _row_floors(z, verts, rows, out[3 * j : 3 * j + 3], fraction, aniso)
     if not an_node.any():
         packed = np.zeros((0, 0))
-    return Floors(*out, packed, keep)
+    med = float(np.median(np.concatenate(areas))) if areas else 0.0
+    return Floors(*out, packed, keep, med)
+
+
+def _area2(px, py) -> np.ndarray:
+    """Twice the signed areas of cells with corners at (px, py) (triangles: an edge cross product;
+    quads: the diagonals)."""
+    if len(px) == 3:
+        return (px[1] - px[0]) * (py[2] - py[0]) - (py[1] - py[0]) * (px[2] - px[0])
+    return (px[2] - px[0]) * (py[3] - py[1]) - (py[2] - py[0]) * (px[3] - px[1])
 
 
 def _row_floors(z, verts, rows, out, fraction, aniso) -> None:
@@ -171,10 +186,7 @@ def _row_floors(z, verts, rows, out, fraction, aniso) -> None:
     px, py = _gather(z, verts[rows])  # once, for the lengths and the area
     _, _, e = _edge_lengths(px, py)
     an = np.max(e, axis=0) >= aniso * np.min(e, axis=0)
-    if k == 3:
-        area2 = (px[1] - px[0]) * (py[2] - py[0]) - (py[1] - py[0]) * (px[2] - px[0])
-    else:
-        area2 = (px[2] - px[0]) * (py[3] - py[1]) - (py[2] - py[0]) * (px[3] - px[1])
+    area2 = _area2(px, py)
     f = np.where(an, fraction, 0.0)
     for c, v in zip(out, (f * np.abs(area2), f * e[0], f * e[k - 1])):
         c[rows] = v

@@ -57,7 +57,7 @@ class _Patch:
     diagonal formula gives the same bits in every rotation), its edges the corner's u and w.
     """
 
-    def __init__(self, points, topo, nodes, cell_ids, floors=None):
+    def __init__(self, points, topo, nodes, cell_ids, floors=None, size_scale=None):
         nt = topo.n_tri
         self.nodes = nodes
         n = nodes.shape[0]
@@ -85,6 +85,9 @@ class _Patch:
         self.quad = np.arange(self.lv.shape[0]) >= 3 * self.ntri
         self.any_quad = bool(self.nq)
         self.lq = slot(quad.astype(np.intp)) if self.nq else None
+        nt3 = self.ntri
+        self.lt = np.stack([self.lv[:nt3], self.lv[nt3:2 * nt3], self.lv[2 * nt3:3 * nt3]], axis=1)
+        self.S = size_scale  # radians per unit area of the cells' size term (None: angles only)
         self.ext = np.asarray(points, np.float64)[ext]
         # the input floors of the moving nodes' incidence rows (node first, ccw): twice the area and
         # the two edges at the node may not go below them (see _floors.input_floors)
@@ -143,7 +146,8 @@ class _Patch:
             a = np.concatenate([0.5 * tri2, 0.5 * q2], axis=1)
         else:
             a = 0.5 * tri2
-        ok &= (a.min(axis=1) >= lo) & (a.max(axis=1) <= hi)
+        amin = a.min(axis=1)
+        ok &= (amin >= lo) & (a.max(axis=1) <= hi)
         if self.floor is not None:
             fc, fq, qc, fa, f1, f2 = self.floor
             a2 = cr[:, fc]
@@ -152,7 +156,8 @@ class _Patch:
             e1 = np.hypot(u[:, fc, 0], u[:, fc, 1])
             e2 = np.hypot(w[:, fc, 0], w[:, fc, 1])
             ok &= ((a2 >= fa) & (e1 >= f1) & (e2 >= f2)).all(axis=1)
-        return np.where(ok, q.min(axis=1), -np.inf), cs
+        f = q.min(axis=1) if self.S is None else np.minimum(q.min(axis=1), self.S * amin)
+        return np.where(ok, f, -np.inf), cs, a
 
     def gradients(self, sel, th, u, w):
         """(c, n, 2): gradient of the quality of the corners ``sel`` (indices; at angles th, edges u,
@@ -172,6 +177,22 @@ class _Patch:
         G = np.zeros((a, self.ext.shape[0] + self.n, 2))  # slots n..: the non-moving nodes (dropped)
         # a corner's three nodes are distinct: one value per entry, as np.add.at would sum it
         G[np.arange(a)[:, None], self.l3[sel]] = g
+        return G[:, : self.n]
+
+    def area_gradients(self, sel, Y):
+        """(c, n, 2): gradient of ``S`` x the area of the cells ``sel`` (indices in area order: triangles,
+        then quads) at local positions Y (n + m, 2) with respect to the moving nodes.  Corner i of a
+        polygon moves its area by (y_{i+1} - y_{i-1}, x_{i-1} - x_{i+1}) / 2 (the shoelace formula)."""
+        G = np.zeros((sel.shape[0], self.ext.shape[0] + self.n, 2))
+        for cells, rows in ((self.lt, sel < self.ntri), (self.lq, sel >= self.ntri)):
+            r = np.flatnonzero(rows)
+            if not r.size:
+                continue
+            v = cells[sel[r] - (0 if cells is self.lt else self.ntri)]  # (r, k) local slots
+            nx, pv = Y[np.roll(v, -1, axis=1)], Y[np.roll(v, 1, axis=1)]
+            # a cell's corners are distinct: one value per entry
+            G[r[:, None], v, 0] = (0.5 * self.S) * (nx[..., 1] - pv[..., 1])
+            G[r[:, None], v, 1] = (0.5 * self.S) * (pv[..., 0] - nx[..., 0])
         return G[:, : self.n]
 
 
@@ -276,63 +297,23 @@ def _limits(patch: _Patch, Y, area_band, area_limits):
 
 def _ascend(patch: _Patch, X, iterations, eps, area_band, area_limits):
     """The patch's nodes after ``iterations`` ascent steps (see :mod:`._patch`), one patch alone."""
-    Y = patch.positions(X[None])
-    lo, hi = _limits(patch, Y, area_band, area_limits)
-    f, (q, th, cr, u, w) = patch.score(Y, lo, hi)
-    f0 = float(f[0])
-    if not np.isfinite(f0):
-        return X, f0
-    q, th, u, w = q[0], th[0], u[0], w[0]
-    h = float(np.mean(np.sqrt((u * u).sum(1))))
-    t = 0.1 * h
-    halvings = _HALVINGS
-    n = patch.n
-    last = None  # the active set whose direction (d, nd) is known at the current X
-    corral = np.zeros(0, np.intp)  # the corners of the last min-norm point's corral
-    for _ in range(iterations):
-        active = np.flatnonzero(q <= q.min() + eps)
-        if last is None or not np.array_equal(active, last):  # else: the same rows, the same direction
-            G = patch.gradients(active, th[active], u[active], w[active]).reshape(active.shape[0], -1)
-            at = np.searchsorted(active, corral)
-            d, S = _min_norm(G, at[active[np.minimum(at, active.shape[0] - 1)] == corral].tolist())
-            corral = active[S]
-            nd = float(np.sqrt(d @ d))
-            last = active
-        if nd < 1e-12:
-            eps *= 0.5
-            if eps < _EPS_MIN:
-                break
-            continue
-        steps = t * halvings
-        Xs = X[None] + steps[:, None, None] * (d / nd).reshape(-1, 2)[None]
-        Ys = np.empty((8, Y.shape[1], 2))
-        Ys[:, :n] = Xs
-        Ys[:, n:] = patch.ext
-        fs, (qs, ths, _, us, ws) = patch.score(Ys, lo, hi)
-        k = np.flatnonzero(fs > f0 + _GAIN)  # a real gain: round-off never decides a step
-        if k.size:
-            k = k[0]
-            X, f0, t = Xs[k], float(fs[k]), min(2.0 * steps[k], 0.5 * h)
-            q, th, u, w = qs[k], ths[k], us[k], ws[k]
-            last = None
-        else:
-            eps *= 0.5
-            t = float(steps[-1])
-            if eps < _EPS_MIN:
-                break
-    return X, f0
-
-
+    return ascend_all([patch], [X], iterations, eps, area_band, area_limits)[0], None
 
 
 def _direction(patch: _Patch, st: dict):
     """The ascent direction of one patch at its current corners (``st``: its state in :func:`ascend_all`):
     (d, |d|), reused while the active set stays the same."""
     q = st["q"]
+    C = q.shape[0]
+    if patch.S is not None:  # the corners, then the cells' size terms (one index space: C + cell)
+        q = np.concatenate([q, patch.S * st["a"]])
     active = np.flatnonzero(q <= q.min() + st["eps"])
     last = st["last"]
     if last is None or not np.array_equal(active, last):
-        G = patch.gradients(active, st["th"][active], st["u"][active], st["w"][active]).reshape(active.shape[0], -1)
+        ac, cl = active[active < C], active[active >= C] - C
+        G = patch.gradients(ac, st["th"][ac], st["u"][ac], st["w"][ac]).reshape(ac.shape[0], 2 * patch.n)
+        if cl.size:
+            G = np.concatenate([G, patch.area_gradients(cl, st["Y"]).reshape(cl.shape[0], 2 * patch.n)])
         corral = st["corral"]
         at = np.searchsorted(active, corral)
         d, S = _min_norm(G, at[active[np.minimum(at, active.shape[0] - 1)] == corral].tolist())
@@ -379,6 +360,7 @@ class _Batch:
             pos = np.concatenate([fst[i] + 1 + np.arange(f[0].shape[0]) for i, f in rows])
             self.floor = (fc, fq, qc, fa, f1, f2, pos, fst, int(cnt.sum()) + len(patches))
         self.cst = self.cst[:-1]
+        self.S = patches[0].S  # one size scale for every patch of a pass
 
     def score(self, Y, lo, hi):
         """(K, patches) minimum corner quality at Y (K, all local nodes, 2), -inf where a patch is invalid
@@ -400,7 +382,8 @@ class _Batch:
             q2 = d02.real * d13.imag - d02.imag * d13.real  # _area2's diagonal formula
             a = np.concatenate([a, 0.5 * q2], axis=1)
         a = a[:, self.aord]
-        ok &= (np.minimum.reduceat(a, self.ast, axis=1) >= lo) & (np.maximum.reduceat(a, self.ast, axis=1) <= hi)
+        amin = np.minimum.reduceat(a, self.ast, axis=1)
+        ok &= (amin >= lo) & (np.maximum.reduceat(a, self.ast, axis=1) <= hi)
         if self.floor is not None:
             fc, fq, qc, fa, f1, f2, pos, fst, width = self.floor
             a2 = cr[:, fc]
@@ -411,7 +394,10 @@ class _Batch:
             bad = np.zeros((Y.shape[0], width), bool)
             bad[:, pos] = ~((a2 >= fa) & (e1 >= f1) & (e2 >= f2))
             ok &= ~np.logical_or.reduceat(bad, fst, axis=1)
-        return np.where(ok, np.minimum.reduceat(q, self.cst, axis=1), -np.inf), (q, th, u, w)
+        f = np.minimum.reduceat(q, self.cst, axis=1)
+        if self.S is not None:
+            f = np.minimum(f, self.S * amin)
+        return np.where(ok, f, -np.inf), (q, th, u, w, a)
 
 
 def ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
@@ -423,12 +409,12 @@ def ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
     for i, (p, X) in enumerate(zip(patches, out)):
         Y = p.positions(X[None])
         lo, hi = _limits(p, Y, area_band, area_limits)
-        f, (q, th, cr, u, w) = p.score(Y, lo, hi)
+        f, (q, th, cr, u, w), a = p.score(Y, lo, hi)
         f0 = float(f[0])
         if np.isfinite(f0):
             h = float(np.mean(np.sqrt((u[0] * u[0]).sum(1))))
             states[i] = dict(lo=lo, hi=hi, f0=f0, h=h, t=0.1 * h, eps=eps, q=q[0], th=th[0], u=u[0], w=w[0],
-                             last=None, corral=np.zeros(0, np.intp))
+                             last=None, corral=np.zeros(0, np.intp), a=a[0], Y=Y[0])
     if not states:
         return out
     batch = _Batch(patches)
@@ -454,7 +440,7 @@ def ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
         for i, (steps, dn) in moving.items():
             o = batch.off[i]
             Ys[:, o:o + patches[i].n] = out[i][None] + steps[:, None, None] * dn[None]
-        fs, (qs, ths, us, ws) = batch.score(Ys, lo, hi)
+        fs, (qs, ths, us, ws, As) = batch.score(Ys, lo, hi)
         for i, (steps, _) in moving.items():
             st = states[i]
             k = np.flatnonzero(fs[:, i] > st["f0"] + _GAIN)
@@ -467,6 +453,10 @@ def ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
                 st["f0"], st["t"] = float(fs[k, i]), min(2.0 * steps[k], 0.5 * st["h"])
                 st["q"], st["th"] = qs[k, c0:c1], ths[k, c0:c1]
                 st["u"], st["w"] = us[k, c0:c1, None].view(np.float64), ws[k, c0:c1, None].view(np.float64)
+                if patches[i].S is not None:  # the areas and positions the size terms' gradients need
+                    a0 = batch.ast[i]
+                    st["a"] = As[k, a0:a0 + patches[i].ntri + patches[i].nq]
+                    st["Y"] = Ycur[o:batch.off[i + 1]].copy()
                 st["last"] = None
             else:
                 st["eps"] *= 0.5

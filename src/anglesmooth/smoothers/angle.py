@@ -94,6 +94,9 @@ The robust default (``guard=True``)
        stage 4 (see :mod:`._patch`): a valence-3 node inside a boundary sliver
        with two fixed corners can reach at most half the sliver's smallest
        angle alone, and the sliver opens only if its neighbours move too.
+       Every cell of a patch also counts like a 30 deg corner times its area
+       over 0.15 x the input's median cell area, so that the patch grows a
+       sliver rather than shrinking its neighbours (size uniformity).
 
     Every alternative measured while building these stages (stage 5's
     patch sizes and solvers, the Table 5 ablations, size uniformity, the
