@@ -71,6 +71,20 @@ def local_min_angle(p, cells_i):
     return -10.0 - bad if bad else best
 
 
+def largest_moving_angle(p, i, cells_i):
+    """The largest corner angle (radians) that node ``i`` moves: every corner of its triangles, every corner
+    of its quads but the one opposite ``i``; reflex or degenerate corners count as pi."""
+    big = 0.0
+    for c in cells_i:
+        k = len(c)
+        for m in range(k):
+            if k == 4 and c[m] == c[(c.index(i) + 2) % 4]:
+                continue
+            a = corner_angle(p, c[m], c[m - 1], c[(m + 1) % k])
+            big = max(big, math.pi if a is None else a)
+    return big
+
+
 def laplacian_pos(p, i, nb):
     return [sum(p[j][0] for j in nb[i]) / len(nb[i]), sum(p[j][1] for j in nb[i]) / len(nb[i])]
 
@@ -163,7 +177,7 @@ def reference_keep(points, topo, keep_quad=30.0, keep_tri=40.0, keep_rect=15.0, 
 
 
 def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20.0, accept_above_quad=20.0,
-                   keep=None):
+                   keep=None, keep_largest=True):
     """One pass of ``method`` in the topology's colour order, node by node.
 
     For ``angle`` with ``guard`` this is the robust candidate selection (the
@@ -175,7 +189,9 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
     guarded Laplacian move)
     without the local optimization of the worst nodes (``opt_iterations=0``).
     ``keep`` (per free node, bool; see :func:`reference_keep`): those nodes take the angle position
-    only where it is also no worse than staying, and otherwise always the best of five.
+    only where it is also no worse than staying and opens none of the corners the node moves beyond the
+    largest of them when staying (or a right angle; ``keep_largest=False``: without this second test), and
+    otherwise always the best of five.
     """
     p = [list(map(float, x)) for x in points]
     cells = cells_of(topo)
@@ -216,7 +232,9 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
             q_ang = local_min_angle(_with(p, i, ang), inc[i])
             has_quad = any(len(c) == 4 for c in inc[i])
             if q_ang >= math.radians(accept_above_quad if has_quad else accept_above) and (
-                    not kp or q_ang >= local_min_angle(p, inc[i])):
+                    not kp or (q_ang >= local_min_angle(p, inc[i])
+                               and (not keep_largest or largest_moving_angle(_with(p, i, ang), i, inc[i])
+                                    <= max(largest_moving_angle(p, i, inc[i]), math.pi / 2)))):
                 p[i] = ang
                 continue
             cands = [ang, lap, [(ang[0] + lap[0]) / 2, (ang[1] + lap[1]) / 2], [(ang[0] + cur[0]) / 2, (ang[1] + cur[1]) / 2], cur]

@@ -272,17 +272,31 @@ def half_triangles(seed: int = 0) -> Mesh2D:
     return Mesh2D.from_arrays(m.points, triangles=tri, quads=q[~left])
 
 
+def _boundary_layer_hole():
+    from pathlib import Path
+
+    with np.load(Path(__file__).resolve().parent / "data" / "boundary_layer_hole.npz") as z:
+        return Mesh2D.from_arrays(z["points"], triangles=z["triangles"], quads=z["quads"])
+
+
 @pytest.mark.parametrize("kernel", ["numpy", "numba"])
-@pytest.mark.parametrize("gen_name", ["paper_mixed_mesh", "paper_quad_mesh", "half_triangles"])
+@pytest.mark.parametrize("gen_name", ["paper_mixed_mesh", "paper_quad_mesh", "half_triangles", "boundary_layer_hole"])
 def test_well_shaped_input_rule_matches_the_per_node_reference(gen_name, kernel, monkeypatch):
     """Stages 1-2 of the default with the well-shaped-input rule (``floors.keep``): the nodes it marks
     and the pass they make, against the reference, with either kernel.  Nodes of quads only away from
     the triangles are marked only where all their quads are near-rectangular (issue 12: the former rule
-    cost Table 5's size uniformity there)."""
+    cost Table 5's size uniformity there).  On the boundary layer around a hole the rule's second test
+    (the node's largest moving corner no wider than staying's, or a right angle) changes moves: without
+    it the quads between the triangles and the inner layers opened from 104 to 110-112 deg."""
     from anglesmooth.smoothers._floors import input_floors
 
     monkeypatch.setenv("ANGLESMOOTH_KERNEL", kernel)
-    mesh = half_triangles(seed=4) if gen_name == "half_triangles" else getattr(generate, gen_name)(seed=4)
+    if gen_name == "boundary_layer_hole":
+        mesh = _boundary_layer_hole()
+    elif gen_name == "half_triangles":
+        mesh = half_triangles(seed=4)
+    else:
+        mesh = getattr(generate, gen_name)(seed=4)
     topo = build_topology(mesh)
     floors = input_floors(np.array(mesh.points), topo)
     keep = reference_keep(mesh.points, topo)
@@ -299,14 +313,17 @@ def test_well_shaped_input_rule_matches_the_per_node_reference(gen_name, kernel,
         assert former.sum() >= keep.sum() + 10
     # the rule alone (the floors' area and length limits off: the reference has none)
     rule = floors._replace(packed=np.zeros((0, 0)))
-    p = q = plain = mesh.points
+    p = q = plain = first = mesh.points
     for _ in range(2):
         p = get_smoother("angle").step(p, topo, opt_iterations=0, patch_cells=0, floors=rule).points
         q = reference_pass(q, topo, "angle", keep=keep)
         plain = reference_pass(plain, topo, "angle")
+        first = reference_pass(first, topo, "angle", keep=keep, keep_largest=False)
     np.testing.assert_allclose(p, q, rtol=0, atol=1e-9 * np.ptp(mesh.points))
     if keep.any():
         assert np.abs(q - plain).max() > 1e-6 * np.ptp(mesh.points)  # the rule changed some moves
+    if gen_name == "boundary_layer_hole":
+        assert np.abs(q - first).max() > 1e-6 * np.ptp(mesh.points)  # and its largest-corner test too
 
 
 @pytest.mark.parametrize("free_corners", [((2.45, 0.02), (2.55, 0.021)), ((2.4, 0.03), (2.6, 0.02))])
@@ -462,12 +479,9 @@ def test_default_keeps_the_inner_layers_of_a_boundary_layer():
     committed: gmsh does not rebuild it identically): the inner layers' nodes have quads only, and
     the default's well-shaped-input rule must hold them there too (near-rectangular quads).  With the
     rule only near triangles it ended at 36.6 / 140.3 deg from an input of 39.2 / 103.9."""
-    from pathlib import Path
-
     from anglesmooth.quality import summarize
 
-    with np.load(Path(__file__).resolve().parent / "data" / "boundary_layer_hole.npz") as z:
-        mesh = Mesh2D.from_arrays(z["points"], triangles=z["triangles"], quads=z["quads"])
+    mesh = _boundary_layer_hole()
     topo = build_topology(mesh)
     quad_only = ~np.isin(topo.free_nodes, topo.tri) & np.isin(topo.free_nodes, topo.quad)
     assert quad_only.sum() >= 10  # inner layers exist

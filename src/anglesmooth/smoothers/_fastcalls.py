@@ -82,7 +82,8 @@ def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, ne
     """Stages 1 and 2 of the robust ``angle`` update, fused per node (see :func:`.angle.step`).
 
     ``good``: the acceptance score threshold, one per block node or one for all; ``keep``: None or
-    a bool per block node, where the angle position must also be no worse than staying; ``nearest``:
+    a bool per block node, where the angle position must also be no worse than staying (and open no
+    moving corner beyond staying's widest or 90 deg); ``nearest``:
     stage 2 takes the good-enough candidate nearest the angle position (see :func:`.angle.step`);
     ``certify``: None or a score per block node (see ``_fastkernels.angle_choose``).  Returns (positions,
     scores, refused, lazy): ``lazy`` marks the nodes whose score is ``inf`` instead of the exact one.

@@ -317,6 +317,40 @@ def _node_area_range_rows(px, py, f, tp, qp, buf):
     return lo, hi
 
 
+@njit(inline="always")
+def _node_largest_rows(px, py, f, tp, qp, buf):
+    """``BlockGeometry.largest`` for one node: ``-cos`` of the largest corner its position moves (every
+    corner of its triangles; corners 0, 1 and 3 of its quads), from the rows of :func:`_node_rows`, the
+    same operations as the score's; NaN where one is NaN, as numpy's maximum)."""
+    m = -np.inf
+    nan = False
+    nt = tp[f + 1] - tp[f]
+    for k in range(nt):
+        x1, y1, x2, y2 = buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3]
+        ux, uy, l12 = buf[k, 4], buf[k, 5], buf[k, 6]
+        ex1, ey1 = x1 - px, y1 - py
+        fx2, fy2 = px - x2, py - y2
+        l1 = math.sqrt(ex1 * ex1 + ey1 * ey1)
+        l2 = math.sqrt(fx2 * fx2 + fy2 * fy2)
+        for v in ((ex1 * fx2 + ey1 * fy2) / (l1 * l2), (ux * ex1 + uy * ey1) / (l12 * l1),
+                  (fx2 * ux + fy2 * uy) / (l2 * l12)):
+            nan |= v != v
+            m = max(m, v)
+    for k in range(nt, nt + qp[f + 1] - qp[f]):
+        x1, y1, x3, y3 = buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3]
+        ux, uy, vx, vy = buf[k, 4], buf[k, 5], buf[k, 6], buf[k, 7]
+        l12, l23 = buf[k, 8], buf[k, 9]
+        ex1, ey1 = x1 - px, y1 - py
+        ex3, ey3 = x3 - px, y3 - py
+        l1 = math.sqrt(ex1 * ex1 + ey1 * ey1)
+        l3 = math.sqrt(ex3 * ex3 + ey3 * ey3)
+        for v in (-((ex1 * ex3 + ey1 * ey3) / (l1 * l3)), (ux * ex1 + uy * ey1) / (l12 * l1),
+                  -((ex3 * vx + ey3 * vy) / (l3 * l23))):
+            nan |= v != v
+            m = max(m, v)
+    return np.nan if nan else m
+
+
 @_kernel
 def score(pts, X, nodes, tp, tv, qp, qv, fl):
     K, n = X.shape[0], X.shape[1]
@@ -478,7 +512,8 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
     """Stages 1 and 2 of the robust ``angle`` update (``angle.step``), fused per node.
 
     ``good`` is the per-node acceptance threshold; where ``keep`` (empty: nowhere) the angle position
-    must also be no worse than staying.  ``nearest``: stage 2 takes the candidate nearest the angle
+    must also be no worse than staying, nor open its widest moving corner beyond staying's or 90 deg
+    (:func:`_node_largest_rows`).  ``nearest``: stage 2 takes the candidate nearest the angle
     position among those scoring at least ``good`` (not where ``keep``), else the best.  Returns the
     chosen positions, their scores, whether the angle position was invalid and ``lazy``: where
     ``certify`` (per node, a score above ``good``; empty: nowhere; only without floors) says that a score
@@ -512,6 +547,9 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
             _node_rows(pts, f, tp, tv, qp, qv, buf)
         if take and kp:
             take = s_a >= _node_score_rows(cx, cy, f, tp, qp, buf, fl, s_a, -np.inf, np.inf, _NOT_STRICT)
+            if take:  # nor may its largest moving corner open beyond staying's (or a right angle)
+                m_a = _node_largest_rows(ax, ay, f, tp, qp, buf)
+                take = (m_a <= _node_largest_rows(cx, cy, f, tp, qp, buf)) | (m_a <= 0.0)
         if take:
             new[i, 0], new[i, 1], best[i] = ax, ay, s_a
             continue

@@ -308,6 +308,34 @@ class BlockGeometry:
             cm[~ok] = np.inf
         return cm, ok, ar
 
+    def largest(self, X: np.ndarray) -> np.ndarray:
+        """``-cos`` of the largest corner each node's position ``X`` (n, 2) moves: every corner of its
+        triangles, corners 0, 1 and 3 of its quads (corner 2 does not depend on it); the score's
+        operations, NaN where one is NaN.  Stage 1's test at nodes of well-shaped input cells."""
+        x0, y0 = np.asarray(X[:, 0], dtype=np.float64), np.asarray(X[:, 1], dtype=np.float64)
+        out = np.full(self.n, -np.inf)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for r0, r1, nodes, d in self._t.chunks:
+                px, py = np.repeat(x0[nodes], d), np.repeat(y0[nodes], d)
+                ux, uy, l12 = self.t_ux[r0:r1], self.t_uy[r0:r1], self.t_l12[r0:r1]
+                ex1, ey1 = self.t_x1[r0:r1] - px, self.t_y1[r0:r1] - py
+                fx2, fy2 = px - self.t_x2[r0:r1], py - self.t_y2[r0:r1]
+                l1, l2 = np.sqrt(ex1 * ex1 + ey1 * ey1), np.sqrt(fx2 * fx2 + fy2 * fy2)
+                v = np.maximum(np.maximum((ex1 * fx2 + ey1 * fy2) / (l1 * l2), (ux * ex1 + uy * ey1) / (l12 * l1)),
+                               (fx2 * ux + fy2 * uy) / (l2 * l12))
+                out[nodes] = np.maximum(out[nodes], _rowreduce(v, d, np.maximum))
+            for r0, r1, nodes, d in self._q.chunks:
+                px, py = np.repeat(x0[nodes], d), np.repeat(y0[nodes], d)
+                ux, uy, l12 = self.q_ux[r0:r1], self.q_uy[r0:r1], self.q_l12[r0:r1]
+                vx, vy, l23 = self.q_vx[r0:r1], self.q_vy[r0:r1], self.q_l23[r0:r1]
+                ex1, ey1 = self.q_x1[r0:r1] - px, self.q_y1[r0:r1] - py
+                ex3, ey3 = self.q_x3[r0:r1] - px, self.q_y3[r0:r1] - py
+                l1, l3 = np.sqrt(ex1 * ex1 + ey1 * ey1), np.sqrt(ex3 * ex3 + ey3 * ey3)
+                v = np.maximum(np.maximum(-((ex1 * ex3 + ey1 * ey3) / (l1 * l3)), (ux * ex1 + uy * ey1) / (l12 * l1)),
+                               -((ex3 * vx + ey3 * vy) / (l3 * l23)))
+                out[nodes] = np.maximum(out[nodes], _rowreduce(v, d, np.maximum))
+        return out
+
     def area_range(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Smallest and largest signed area of each node's incident cells at positions ``X`` (..., n, 2)."""
         X = np.asarray(X, dtype=np.float64)

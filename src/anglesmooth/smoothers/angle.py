@@ -51,8 +51,12 @@ The robust default (``guard=True``)
        deg, or a stretched well-shaped quad), and nodes among quads only
        whose quads are all within 15 deg of right angles (the inner layers
        of a boundary layer; see :func:`._floors.input_floors`), take it only
-       if it is also no worse than staying, so the good parts of a mesh
-       never get worse.
+       if it is also no worse than staying and opens none of the corners
+       the node moves (every corner of its triangles, three of each quad)
+       wider than the widest of them when staying, or than a right angle,
+       so the good parts of a mesh never get worse: the smallest angle
+       alone cannot see a quad beside 40 deg triangles open from 104 to
+       112 deg.
     2. *Otherwise the nearest good one, else the best of five*: of the
        Laplacian position L, (A+L)/2, (A+C)/2 and the current position C, the
        one nearest A whose local quality is at least the acceptance
@@ -292,7 +296,10 @@ def step(
         if keep is not None:
             k = np.flatnonzero(keep & take)
             if k.size:
-                take[k] = s_a[k] >= geom.restrict(k).score(cur[k])
+                g = geom.restrict(k)
+                # no worse than staying, nor its largest moving corner opened beyond staying's (or 90 deg)
+                m_a = g.largest(target[k])
+                take[k] = (s_a[k] >= g.score(cur[k])) & ((m_a <= g.largest(cur[k])) | (m_a <= 0.0))
         rest = np.flatnonzero(~take)
         if rest.size:
             # stage 2: the others choose among all five candidates (the first best wins)
