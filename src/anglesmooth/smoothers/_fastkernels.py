@@ -364,9 +364,9 @@ def _node_angle(pts, f, free, sp, ring, sa, sb, frac, sap, ub):
     """``angle_target`` / ``_angle_sums`` for one node: the mean of its rotated spoke positions.
 
     Every spoke's unit vector towards ``b`` (and its length) first, into the scratch ``ub``; a spoke
-    whose ``a`` edge is another spoke's ``b`` edge reversed (``sap``, :func:`._fastcalls._spoke_partner`:
-    every edge of a triangle fan) takes minus that unit vector instead of a square root and two
-    divisions of its own: bit for bit the same numbers (``pa - pj`` is exactly ``-(pj - pa)``, the
+    whose ``a`` edge is another spoke's ``b`` edge reversed (``sap``, :func:`._fastcalls._spoke_partner`,
+    that spoke's place among the node's spokes: every edge of a triangle fan) takes minus that unit
+    vector instead of a square root and two divisions of its own: bit for bit the same numbers (``pa - pj`` is exactly ``-(pj - pa)``, the
     same squares give the same length; a zero difference divides as before, for the sign of the zero).
     """
     cx, cy = pts[free[f], 0], pts[free[f], 1]
@@ -383,9 +383,8 @@ def _node_angle(pts, f, free, sp, ring, sa, sb, frac, sap, ub):
         j, a = ring[s], sa[s]
         jx, jy = pts[j, 0], pts[j, 1]
         ax, ay = pts[a, 0] - jx, pts[a, 1] - jy
-        p = sap[s]
-        if p >= 0:
-            q = p - s0
+        q = sap[s]  # (relative to the node's first spoke)
+        if q >= 0:
             ax = -ub[q, 0] if ax != 0.0 else ax / ub[q, 2]
             ay = -ub[q, 1] if ay != 0.0 else ay / ub[q, 2]
         else:
