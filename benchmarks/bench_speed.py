@@ -307,7 +307,7 @@ def worker_breakdown(npz: str, repeat: int) -> dict:
             tl.switch("optimization")
             return np.argpartition(*args, **kwargs)
 
-    def run_blocks(points, topo_, order, update):
+    def run_blocks(points, topo_, order, update, **kw):  # (kw: run_blocks' options, e.g. current)
         def timed_update(*args):
             calls["per_node"] = 0
             tl.switch("scoring")
@@ -316,7 +316,7 @@ def worker_breakdown(npz: str, repeat: int) -> dict:
             finally:
                 tl.switch("block loop")
 
-        return saved["run_blocks"](points, topo_, order, timed_update)
+        return saved["run_blocks"](points, topo_, order, timed_update, **kw)
 
     patched = {
         "angle_target": tl.wrap(saved["angle_target"], "angle target"),

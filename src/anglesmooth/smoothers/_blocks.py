@@ -45,12 +45,15 @@ def run_blocks(
     points: np.ndarray,
     topo: Topology,
     order: str,
-    update: Callable[[np.ndarray, Block, np.ndarray], tuple[np.ndarray, int]],
+    update: Callable[[np.ndarray, Block, np.ndarray | None], tuple[np.ndarray, int]],
+    current: bool = True,
 ) -> StepResult:
     """Apply ``update(points, block, current)`` to each block in turn.
 
     ``update`` returns the new positions of the block's nodes and its number
-    of refused moves.  Blocks see the positions written by earlier blocks
+    of refused moves; ``current`` False: it gets None instead of the block's
+    current positions (one gather per block fewer, for an update that does
+    not read them).  Blocks see the positions written by earlier blocks
     (Gauss-Seidel over colour classes); with ``order="jacobi"`` there is a
     single block.  Only free nodes are ever written, so fixed nodes are
     bit-identical.  The input array is not modified.
@@ -62,7 +65,7 @@ def run_blocks(
         if blk.size == 0:
             continue
         nodes = intp(topo, "free_nodes")[blk.nodes]
-        new, rej = update(out, blk, np.take(out, nodes, axis=0))
+        new, rej = update(out, blk, np.take(out, nodes, axis=0) if current else None)
         x[nodes] = new[:, 0]
         y[nodes] = new[:, 1]
         rejected += int(rej)

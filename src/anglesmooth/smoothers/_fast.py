@@ -136,7 +136,7 @@ METHOD_KERNELS = {
 # argument that is none of these runs whole on one thread (tests/test_fast_install.py checks that
 # every kernel's parameters are known)
 PER_NODE = {"nodes": 0, "x": 0, "X": 1, "scale": 0}
-SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "rp", "nbr", "tp", "tv", "qp", "qv", "directions", "fl"}
+SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "sap", "rp", "nbr", "tp", "tv", "qp", "qv", "directions", "fl"}
 SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest", "alo", "ahi", "strict", "best", "certify",
            "resume_iterations", "resume_radius", "resume_above"}  # or one value per node, or empty
 

@@ -383,23 +383,50 @@ def _cell_area_range(pts, tri, quad):
     return (np.nan, np.nan) if nan else (lo, hi)
 
 
+@njit(inline="always")
+def _max_spokes(nodes, sp):
+    """The most spokes of any of ``nodes``: the rows of the scratch :func:`_node_angle` fills."""
+    m = 0
+    for i in range(nodes.shape[0]):
+        f = nodes[i]
+        m = max(m, sp[f + 1] - sp[f])
+    return m
+
+
 @_helper
-def _node_angle(pts, f, free, sp, ring, sa, sb, frac):
-    """``angle_target`` / ``_angle_sums`` for one node: the mean of its rotated spoke positions."""
+def _node_angle(pts, f, free, sp, ring, sa, sb, frac, sap, ub):
+    """``angle_target`` / ``_angle_sums`` for one node: the mean of its rotated spoke positions.
+
+    Every spoke's unit vector towards ``b`` (and its length) first, into the scratch ``ub``; a spoke
+    whose ``a`` edge is another spoke's ``b`` edge reversed (``sap``, :func:`._fastcalls._spoke_partner`,
+    that spoke's place among the node's spokes: every edge of a triangle fan) takes minus that unit
+    vector instead of a square root and two divisions of its own: bit for bit the same numbers (``pa - pj`` is exactly ``-(pj - pa)``, the
+    same squares give the same length; a zero difference divides as before, for the sign of the zero).
+    """
     cx, cy = pts[free[f], 0], pts[free[f], 1]
+    s0 = sp[f]
+    for s in range(s0, sp[f + 1]):
+        j, b = ring[s], sb[s]
+        bx, by = pts[b, 0] - pts[j, 0], pts[b, 1] - pts[j, 1]
+        lb = math.sqrt(bx * bx + by * by)
+        k = s - s0
+        ub[k, 0], ub[k, 1], ub[k, 2] = bx / lb, by / lb, lb
     sx = 0.0
     sy = 0.0
-    for s in range(sp[f], sp[f + 1]):
-        j, a, b = ring[s], sa[s], sb[s]
+    for s in range(s0, sp[f + 1]):
+        j, a = ring[s], sa[s]
         jx, jy = pts[j, 0], pts[j, 1]
         ax, ay = pts[a, 0] - jx, pts[a, 1] - jy
-        bx, by = pts[b, 0] - jx, pts[b, 1] - jy
-        la = math.sqrt(ax * ax + ay * ay)
-        ax /= la
-        ay /= la
-        lb = math.sqrt(bx * bx + by * by)
-        bx /= lb
-        by /= lb
+        q = sap[s]  # (relative to the node's first spoke)
+        if q >= 0:
+            ax = -ub[q, 0] if ax != 0.0 else ax / ub[q, 2]
+            ay = -ub[q, 1] if ay != 0.0 else ay / ub[q, 2]
+        else:
+            la = math.sqrt(ax * ax + ay * ay)
+            ax /= la
+            ay /= la
+        k = s - s0
+        bx, by = ub[k, 0], ub[k, 1]
         tx, ty = by - ay, ax - bx
         if frac[s] != 0.5:
             theta = math.atan2(ax * by - ay * bx, ax * bx + ay * by)
@@ -420,7 +447,7 @@ def _node_angle(pts, f, free, sp, ring, sa, sb, frac):
         else:  # a degenerate spoke keeps the current position
             sx += cx
             sy += cy
-    c = float(sp[f + 1] - sp[f])
+    c = float(sp[f + 1] - s0)
     return sx / c, sy / c
 
 
@@ -443,11 +470,12 @@ def _node_ring_mean(pts, f, free, rp, nbr, lengths):
 
 
 @_kernel
-def angle_target(pts, nodes, free, sp, ring, sa, sb, frac):
+def angle_target(pts, nodes, free, sp, ring, sa, sb, frac, sap):
     n = nodes.shape[0]
     out = np.empty((n, 2))
+    ub = np.empty((_max_spokes(nodes, sp), 3))
     for i in prange(n):
-        out[i, 0], out[i, 1] = _node_angle(pts, nodes[i], free, sp, ring, sa, sb, frac)
+        out[i, 0], out[i, 1] = _node_angle(pts, nodes[i], free, sp, ring, sa, sb, frac, sap, ub)
     return out
 
 
@@ -508,7 +536,7 @@ def _node_certified(pts, px, py, f, tp, tv, qp, qv, c):
 
 
 @_kernel
-def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, qv, good, fl, keep, nearest, certify):
+def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, sap, rp, nbr, tp, tv, qp, qv, good, fl, keep, nearest, certify):
     """Stages 1 and 2 of the robust ``angle`` update (``angle.step``), fused per node.
 
     ``good`` is the per-node acceptance threshold; where ``keep`` (empty: nowhere) the angle position
@@ -527,9 +555,10 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, rp, nbr, tp, tv, qp, 
     refused = np.zeros(n, np.bool_)
     lazy = np.zeros(n, np.bool_)
     buf = np.empty((_max_rows(nodes, tp, qp) + 1, _ROW_COLS))  # the node's fixed cell data (speed only)
+    ub = np.empty((_max_spokes(nodes, sp), 3))  # the node's spoke unit vectors (_node_angle)
     for i in prange(n):
         f = nodes[i]
-        ax, ay = _node_angle(pts, f, free, sp, ring, sa, sb, frac)
+        ax, ay = _node_angle(pts, f, free, sp, ring, sa, sb, frac, sap, ub)
         kp = keep.shape[0] > 0 and keep[i]
         if (not kp and certify.shape[0] > 0 and fl.shape[0] == 0 and certify[i] < 0 and certify[i] > good[i]
                 and _node_certified(pts, ax, ay, f, tp, tv, qp, qv, -certify[i])):

@@ -379,7 +379,8 @@ def step(
             new[worst], _ = optimize(sub, start, scale, its, rad, area_band, limits, strict, s_start)
         return new, refused
 
-    res = run_blocks(points, topo, order, update)
+    # the literal rule and the compiled default read no current positions (their kernels do)
+    res = run_blocks(points, topo, order, update, current=guard and not fast)
     if guard and hybrid and patch_cells > 0:  # stage 5: numpy, on a few nodes, the same for either kernel
         pts = patch_moves(res.points, topo, floors, below=patch_below, cells=patch_cells, iterations=patch_iterations,
                           area_band=area_band,
