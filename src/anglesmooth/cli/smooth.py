@@ -16,6 +16,7 @@ from ..quality import summarize
 from ..smoothers import SMOOTHERS
 from ..smoothers._fast import active as fast_active
 from ..smoothers._fast import compile_estimate, kernel_mode, set_threads
+from ..smoothers._jitcache_warm import start as warm_start
 from ..topology import build_topology
 from . import formats
 from .errors import EXIT_GATE, Usage, handle_errors
@@ -130,9 +131,13 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
     # before that leaves none of them (see README "Rules")
     with outs:
         mesh = read_mesh(input, input_format)
+        if passes:  # a compile of the kernels (cold cache) overlaps the set-up below
+            warm_start(method, mesh.n_points, only_cold=True)
         check_output(mesh, output, output_format, binary)  # the output format can hold the mesh: fail before smoothing
         user_nodes = fix_node_indices(mesh, user_nodes, node_numbering) if user_nodes is not None else None
         topo = build_topology(mesh, fixed_mask(mesh, fix_group, user_nodes))
+        if passes:  # numba's import and the kernels' load from the cache overlap the summary
+            warm_start(method, mesh.n_points)
         before = summarize(mesh.points, topo)
         release_free_memory()  # the build's and the summary's freed temporaries (1M triangles: 30 MB of peak)
         warn_invalid(console, name, before)
