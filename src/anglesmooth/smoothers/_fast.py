@@ -59,7 +59,10 @@ Compiling
     ``NUMBA_CACHE_DIR`` or ``ANGLESMOOTH_CACHE_DIR`` says otherwise), so
     later processes load it.  The time spent compiling or loading is counted
     apart (:func:`jit_stats`), and :func:`cold_kernels` /
-    :func:`compile_estimate` tell beforehand whether a run will compile.
+    :func:`compile_estimate` tell beforehand whether a run will compile.  The CLI starts the
+    loading or compiling on a thread during its set-up (:mod:`._jitcache_warm`); a call then waits
+    for a compile in progress on the compile lock, and :func:`jit_stats`' ``wait_s`` is what the
+    calls waited (the compile time a run reports).
 """
 
 from __future__ import annotations
