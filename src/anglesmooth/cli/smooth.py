@@ -142,8 +142,6 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
             prepare_output(mesh, output, output_format, binary)
         user_nodes = fix_node_indices(mesh, user_nodes, node_numbering) if user_nodes is not None else None
         topo = build_topology(mesh, fixed_mask(mesh, fix_group, user_nodes))
-        if passes:  # numba's import and the kernels' load from the cache overlap the summary
-            warm_start(method, mesh.n_points)
         before = summarize(mesh.points, topo)
         release_free_memory()  # the build's and the summary's freed temporaries (1M triangles: 30 MB of peak)
         warn_invalid(console, name, before)

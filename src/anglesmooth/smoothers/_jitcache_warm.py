@@ -5,10 +5,12 @@ A run on the compiled kernels first imports numba and loads its kernels from the
 kernel call, after the topology build and the quality summary.  :func:`start` begins that work on
 a thread with :func:`._fastcalls.warm_up` (the kernels a method calls, on a tiny mesh whose tables
 have any mesh's types, so the code is the very code the run calls), and the CLI's set-up overlaps
-it: numpy's large operations and LLVM (through ctypes) release the GIL.  The CLI starts a compile
-as soon as the mesh is read (the topology build overlaps it), a load from the cache after the
-topology build (the summary overlaps it): numba's some 55 MB then do not add to the build's peak
-memory (1M triangles: 598 -> 609 MB when loaded before the build).  The smoothing needs nothing more: a kernel call waits for a compile in progress
+it: numpy's large operations and LLVM (through ctypes) release the GIL.  The CLI starts only a
+compile (cold cache) this way, as soon as the mesh is read (the topology build overlaps it).  A load
+from the cache is left to the first call: started after the read, numba's some 55 MB added to the
+build's peak memory (1M triangles: 598 -> 609 MB); started after the build, only the summary
+overlapped it and a warm 200k-triangle run took 0.25 s longer (the tiny mesh's set-up, GIL
+contention: 2.41/2.31 -> 2.66/2.57 s, loaded 2-core VM).  The smoothing needs nothing more: a kernel call waits for a compile in progress
 on ``_fast``'s compile lock and finds the code compiled (``_fast._prepare``); the time it waits
 there is counted as that run's compile time.
 
