@@ -337,3 +337,53 @@ def test_a_default_run_compiles_one_signature_per_kernel_the_one_warm_up_compile
     )
     names, before, after, n_sigs = json.loads(_py(code, _env(tmp_path, ANGLESMOOTH_KERNEL="numba"), tmp_path).stdout)
     assert before == sorted(names) and after == before and n_sigs == [1] * len(names)
+
+
+def test_background_warm_up_starts_only_for_compiled_runs(monkeypatch):
+    from anglesmooth.smoothers import _jitcache_warm
+
+    monkeypatch.setattr(_jitcache_warm, "_thread", None)
+    started = []
+    monkeypatch.setattr(_jitcache_warm.threading, "Thread",
+                        lambda **kw: type("T", (), {"start": lambda self: started.append(kw["args"])})())
+    monkeypatch.setenv("ANGLESMOOTH_KERNEL", "numpy")
+    assert not _jitcache_warm.start("angle", 10**6)
+    monkeypatch.setenv("ANGLESMOOTH_KERNEL", "auto")
+    assert not _jitcache_warm.start("angle", _fast.AUTO_MIN_FREE - 1)  # auto keeps it on numpy
+    assert not _jitcache_warm.start("no-such-method", 10**6)
+    assert started == []
+    assert _jitcache_warm.start("angle", _fast.AUTO_MIN_FREE) == (_fast._numba_available())
+    assert started == ([(_fast.METHOD_KERNELS["angle"],)] if _fast._numba_available() else [])
+    assert not _jitcache_warm.start("laplacian", 10**6)  # once per process
+
+
+def test_background_warm_up_compiles_each_kernel_once_and_changes_no_result(tmp_path):
+    """The CLI's warm-up thread (started after reading) and the run's own calls share the compile lock:
+    each kernel compiles once, in either thread; the points are those of a run without the thread
+    (which loads the kernels the first one cached); the run's compile_s is what it waited."""
+    code = (
+        "import json, sys, hashlib\n"
+        "from anglesmooth import generate as gen, smooth\n"
+        "from anglesmooth.smoothers import _fast, _jitcache_warm\n"
+        "m = gen.random_delaunay(3000, 3)\n"
+        "started = _jitcache_warm.start('angle', m.n_points) if sys.argv[1] == 'warm' else False\n"
+        "r = smooth(m, 'angle', passes=2)\n"
+        "s = _fast.jit_stats()\n"
+        "k = _fast._k()\n"
+        "print(json.dumps([started, sorted(s['compiled']), sorted(s['loaded']), r.compile_s, s['wait_s'],"
+        " [len(getattr(k, n).overloads) for n in _fast.METHOD_KERNELS['angle']],"
+        " hashlib.sha256(r.points.tobytes()).hexdigest()]))\n"
+    )
+    env = _env(tmp_path, ANGLESMOOTH_KERNEL="numba")
+    runs = []
+    for mode in ("warm", "plain"):
+        res = subprocess.run([sys.executable, "-c", code, mode], capture_output=True, text=True, env=env,
+                             cwd=tmp_path, timeout=600)
+        assert res.returncode == 0, res.stderr[-3000:]
+        runs.append(json.loads(res.stdout))
+    (started, compiled, loaded, compile_s, wait_s, n_sigs, digest), plain = runs
+    names = sorted(_fast.METHOD_KERNELS["angle"])
+    assert started and compiled == names and loaded == [] and n_sigs == [1] * len(names)
+    assert 0 <= compile_s == wait_s
+    assert plain[0] is False and plain[1] == [] and plain[2] == names and plain[5] == n_sigs
+    assert plain[6] == digest

@@ -536,3 +536,44 @@ def test_polygon_with_three_or_four_sides_is_accepted(tmp_path):
 def test_supported_formats():
     fmts = asio.supported_formats()
     assert ".msh" in fmts and ".xdmf" in fmts and fmts == sorted(fmts)
+
+
+@pytest.mark.parametrize("kind", ["tri", "mixed-msh"])
+def test_vtu_cell_arrays_compressed_ahead_give_meshio_s_bytes(kind, tmp_path, monkeypatch):
+    """prepare_write compresses the cell arrays (connectivity, offsets, types, cell data) before the
+    write; the write takes those blocks (asserted: each array found) and the file is byte for byte the
+    one written without them, for one cell block (offsets and types made piecewise) and for several."""
+    from anglesmooth import generate as gen
+    from anglesmooth.io import _vtu as vtu
+
+    monkeypatch.setattr(vtu, "MIN_BLOCKS", 1)  # tiny meshes: every array of one block or more
+    monkeypatch.setattr(vtu, "BLOCK", vtu.BLOCK)
+    monkeypatch.setattr(vtu, "workers", lambda: 2)
+    if kind == "tri":
+        m = gen.random_delaunay(12000, 4)
+    else:
+        path = tmp_path / "in.msh"
+        t, q = gen.structured_triangles(60, 60), gen.structured_quads(60, 60)
+        pts = np.concatenate([t.points, q.points + [2.0, 0.0]])
+        meshio.write(path, meshio.Mesh(np.c_[pts, 0 * pts[:, 0]], [("triangle", t.triangles),
+                                                                   ("quad", q.quads + len(t.points))]),
+                     file_format="gmsh22")
+        m = asio.read(path)
+    new = np.asarray(m.points) * 1.5
+    asio.write(m, tmp_path / "plain.vtu", points=new)
+    taken = []
+    take = vtu._take_ahead
+
+    def spy(array, n):
+        got = take(array, n)
+        taken.append(got is not None)
+        return got
+
+    monkeypatch.setattr(vtu, "_take_ahead", spy)
+    assert asio.prepare_write(m, tmp_path / "ahead.vtu")
+    asio.write(m, tmp_path / "ahead.vtu", points=new)
+    assert (tmp_path / "ahead.vtu").read_bytes() == (tmp_path / "plain.vtu").read_bytes()
+    # points (not compressed ahead: they changed) and 3 cell arrays + the cell data
+    assert taken.count(False) == 1 and taken.count(True) >= 3
+    assert vtu._ahead == []  # for one write only
+    assert not asio.prepare_write(m, tmp_path / "x.msh") and not asio.prepare_write(m, tmp_path / "a.vtu", binary=False)

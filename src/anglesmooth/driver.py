@@ -182,8 +182,7 @@ def smooth(
 def _jit_seconds() -> float:
     from .smoothers import _fast
 
-    stats = _fast.jit_stats()
-    return stats["compile_s"] + stats["load_s"]
+    return _fast.jit_stats()["wait_s"]  # compiling / loading, or waiting for a warm-up thread doing it
 
 
 def _revert_new_invalid(old: np.ndarray, new: np.ndarray, topo: Topology, bad_before: np.ndarray):

@@ -136,6 +136,16 @@ def write_mesh(mesh, path: str, points: np.ndarray, file_format: str | None, bin
     _paths.active().stage_stdout("OUTPUT", write, suffix=_suffix(file_format))
 
 
+def prepare_output(mesh, path: str, file_format: str | None, binary: bool | None = None) -> bool:
+    """Start the part of :func:`write_mesh` that the smoothing does not change, in the background
+    (``io.prepare_write``: compressed VTU's cell arrays); nothing for stdout.  True when started."""
+    from .. import io as mesh_io
+
+    if path == STDIO:
+        return False
+    return mesh_io.prepare_write(mesh, path, file_format=format_name(file_format, "--output-format"), binary=binary)
+
+
 def check_paths(input, output, *, force, in_place, input_format, output_format, json_path, plot=None,
                 fix_nodes=None, gate_file=None, junit_path=None) -> tuple[str, _paths.Outputs]:
     """Validate INPUT / OUTPUT and the overwrite rules; return the output path and every output, checked."""

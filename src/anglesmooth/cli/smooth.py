@@ -16,18 +16,23 @@ from ..quality import summarize
 from ..smoothers import SMOOTHERS
 from ..smoothers._fast import active as fast_active
 from ..smoothers._fast import compile_estimate, kernel_mode, set_threads
+from ..smoothers._jitcache_warm import start as warm_start
 from ..topology import build_topology
 from . import formats
 from .errors import EXIT_GATE, Usage, handle_errors
 from .many import jobs_option, scheduler_option, smooth_many, wants_many
-from .meshfiles import (STDIO, check_output, check_paths, display, fix_node_indices, read_fix_nodes,
-                        read_mesh, write_mesh)
+from .meshfiles import (STDIO, check_output, check_paths, display, fix_node_indices, prepare_output,
+                        read_fix_nodes, read_mesh, write_mesh)
 from .options import (FiniteFloat, binary_option, debug_option, gate_options, input_format_option, json_option,
                       no_guard_option, node_numbering_option, order_option, output_format_option,
                       quiet_option)
 from .outputs import (PROGRESS_MIN_CELLS, emit_json, gate_thresholds, make_console, note_fast, note_stale, plain,
                       progress_bar, warn_invalid)
 
+
+#: Fewest cells for which the output's cell arrays are compressed ahead (``io.prepare_write``): below
+#: some 170k triangles no array has enough blocks to be compressed apart (``io._vtu.MIN_BLOCKS``).
+PRECOMPRESS_MIN_CELLS = 100_000
 
 #: The other commands' names: the INPUT of an implied ``smooth`` when options come before the command.
 COMMANDS = ("check", "compare", "schema", "smooth")
@@ -130,7 +135,11 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
     # before that leaves none of them (see README "Rules")
     with outs:
         mesh = read_mesh(input, input_format)
+        if passes:  # a compile of the kernels (cold cache) overlaps the set-up below
+            warm_start(method, mesh.n_points, only_cold=True)
         check_output(mesh, output, output_format, binary)  # the output format can hold the mesh: fail before smoothing
+        if mesh.n_cells >= PRECOMPRESS_MIN_CELLS:  # the output's cell arrays compress during the set-up
+            prepare_output(mesh, output, output_format, binary)
         user_nodes = fix_node_indices(mesh, user_nodes, node_numbering) if user_nodes is not None else None
         topo = build_topology(mesh, fixed_mask(mesh, fix_group, user_nodes))
         before = summarize(mesh.points, topo)

@@ -233,6 +233,23 @@ def write(mesh: Mesh2D, path, *, points=None, file_format: str | None = None, bi
         raise MeshWriteError(f"{where}: {_reason(e)}") from None
 
 
+def prepare_write(mesh: Mesh2D, path, *, file_format: str | None = None, binary: bool | None = None) -> bool:
+    """Start, on a background thread, the work of a later :func:`write` of ``mesh`` to ``path`` that the
+    new points do not change (compressed VTU: the cell arrays' zlib blocks, see ``_vtu.precompress``);
+    True when started.  The file :func:`write` makes is the same either way."""
+    try:
+        mesh = as_mesh2d(mesh)
+        fmt = output_format(Path(os.fspath(path)), file_format)
+        src = mesh.source if isinstance(mesh.source, _Source) else None
+        if fmt != "vtu" or (binary if binary is not None else _default_binary(fmt, src)) is False:
+            return False
+        out = _out_mesh(mesh, src, np.asarray(mesh.points, dtype=np.float64), fmt)
+        out.points = None  # a copy, not needed (the cells and cell data are the source's arrays)
+        return _vtu.precompress(out)
+    except Exception:  # noqa: BLE001 - the write itself reports any problem
+        return False
+
+
 def _write_quiet(tmp: str, out, fmt: str, src: _Source | None, binary: bool | None, final: Path | None = None) -> None:
     with _quiet():
         _write_meshio(tmp, out, fmt, src, binary, final=final)

@@ -59,7 +59,10 @@ Compiling
     ``NUMBA_CACHE_DIR`` or ``ANGLESMOOTH_CACHE_DIR`` says otherwise), so
     later processes load it.  The time spent compiling or loading is counted
     apart (:func:`jit_stats`), and :func:`cold_kernels` /
-    :func:`compile_estimate` tell beforehand whether a run will compile.
+    :func:`compile_estimate` tell beforehand whether a run will compile.  The CLI starts the
+    loading or compiling on a thread during its set-up (:mod:`._jitcache_warm`); a call then waits
+    for a compile in progress on the compile lock, and :func:`jit_stats`' ``wait_s`` is what the
+    calls waited (the compile time a run reports).
 """
 
 from __future__ import annotations
@@ -143,10 +146,13 @@ SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest",
 _ENV = "ANGLESMOOTH_KERNEL"
 _kernels = None  # the compiled module, imported on first use
 _COMPILE_LOCK = threading.Lock()
+_POOL_LOCK = threading.Lock()  # apart: a call must not wait for a warm-up's compile of another kernel
 _pool: ThreadPoolExecutor | None = None
 _pool_size = 0
 _threads_cap: int | None = None
-_stats = {"compile_s": 0.0, "load_s": 0.0, "compiled": [], "loaded": []}
+_stats = {"compile_s": 0.0, "load_s": 0.0, "wait_s": 0.0, "compiled": [], "loaded": []}
+#: ``background.on`` is True in a thread that compiles ahead of the run (:mod:`._jitcache_warm`)
+background = threading.local()
 _split_specs: dict = {}
 
 
@@ -237,7 +243,8 @@ def threads(n_nodes: int | None = None) -> int:
 
 def jit_stats() -> dict:
     """Time spent compiling (``compile_s``) and loading from the cache (``load_s``) kernels in this
-    process so far, and which kernels (``compiled``, ``loaded``); a copy."""
+    process so far, and which kernels (``compiled``, ``loaded``); ``wait_s``: the part of it (and of
+    waiting for it) outside a background warm-up (:mod:`._jitcache_warm`), which the runs lost; a copy."""
     return {k: (list(v) if isinstance(v, list) else v) for k, v in _stats.items()}
 
 
@@ -272,7 +279,15 @@ def _prepare(fn, args) -> None:
     if sig in fn.overloads:
         _ready.add(key)
         return
-    with _COMPILE_LOCK:
+    foreground = not getattr(background, "on", False)
+    waited = 0.0
+    if not _COMPILE_LOCK.acquire(blocking=False):  # another thread compiles (a warm-up): wait for it
+        w0 = time.perf_counter()
+        _COMPILE_LOCK.acquire()
+        waited = time.perf_counter() - w0
+    try:
+        if foreground:
+            _stats["wait_s"] += waited
         if sig in fn.overloads:
             return
         hits = sum(fn.stats.cache_hits.values())
@@ -282,6 +297,10 @@ def _prepare(fn, args) -> None:
         loaded = sum(fn.stats.cache_hits.values()) > hits
         _stats["load_s" if loaded else "compile_s"] += dt
         _stats["loaded" if loaded else "compiled"].append(fn.__name__)
+        if foreground:
+            _stats["wait_s"] += dt
+    finally:
+        _COMPILE_LOCK.release()
     _ready.add(key)
 
 
@@ -318,7 +337,7 @@ def _split_spec(fn, args=None):
 
 def _get_pool(n: int) -> ThreadPoolExecutor:
     global _pool, _pool_size
-    with _COMPILE_LOCK:
+    with _POOL_LOCK:
         if _pool is None or _pool_size < n:
             if _pool is not None:
                 _pool.shutdown(wait=False)  # its threads finish what they hold, then exit

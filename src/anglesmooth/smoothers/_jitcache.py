@@ -20,6 +20,8 @@ affected: the locator answers only for files of this package.
 
 from __future__ import annotations
 
+import glob
+import hashlib
 import os
 import sys
 from pathlib import Path
@@ -84,3 +86,28 @@ def install() -> None:
     classes = impl._locator_classes
     at = classes.index(base) + 1 if base in classes else 0
     classes.insert(at, AnglesmoothCacheLocator)
+
+
+def looks_cached(names, modules=("_fastkernels", "_patchkernels")) -> bool:
+    """True when every kernel of ``names`` has a cache index in :func:`cache_dir` newer than its
+    module's source, without importing numba (numba's own layout: ``<dir>_<sha1 of the source dir>/
+    <module>.<kernel>-<line>.pyXY.nbi``).  A guess: a stale or foreign index makes it True, the
+    first compile then happens later than it could (see :mod:`._jitcache_warm`), nothing worse."""
+    sub = os.path.join(str(cache_dir()), "_".join([os.path.basename(_PACKAGE_DIR),
+                                                  hashlib.sha1(_PACKAGE_DIR.encode()).hexdigest()]))
+    tag = f"py{sys.version_info[0]}{sys.version_info[1]}"
+    for name in names:
+        found = False
+        for mod in modules:
+            try:
+                stamp = os.stat(os.path.join(_PACKAGE_DIR, mod + ".py")).st_mtime
+            except OSError:
+                continue
+            for index in glob.glob(os.path.join(glob.escape(sub), f"{mod}.{name}-*.{tag}.nbi")):
+                try:
+                    found = found or os.stat(index).st_mtime >= stamp
+                except OSError:
+                    pass
+        if not found:
+            return False
+    return True
