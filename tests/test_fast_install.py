@@ -387,3 +387,21 @@ def test_background_warm_up_compiles_each_kernel_once_and_changes_no_result(tmp_
     assert 0 <= compile_s == wait_s
     assert plain[0] is False and plain[1] == [] and plain[2] == names and plain[5] == n_sigs
     assert plain[6] == digest
+
+
+def test_numba_is_imported_without_error_highlighting_and_the_environment_is_restored():
+    """numba's first import (through _fast) sets NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING only meanwhile:
+    the compile then skips colorama's per-error stream wrapping; a user's own setting is left alone."""
+    import subprocess
+    import sys
+
+    code = ("import os, sys; from anglesmooth.smoothers import _fast; _fast._k(); "
+            "import numba.core.errors as e; print(type(e.termcolor()).__name__, "
+            "os.environ.get('NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING'))")
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"}
+    env["PYTHONPATH"] = os.pathsep.join([str(Path(__file__).resolve().parents[1] / "src"), env.get("PYTHONPATH", "")])
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    assert out.stdout.split() == ["NOPColorScheme", "None"]
+    env["NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"] = "1"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    assert out.stdout.split() == ["NOPColorScheme", "1"]
