@@ -166,7 +166,7 @@ _NO_HIGHLIGHT = "NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"
 def _numba_available() -> bool:
     import sys
 
-    if "numba" in sys.modules:
+    if sys.modules.get("numba") is not None:  # (None there: an import blocked on purpose)
         return True
     unset = _NO_HIGHLIGHT not in os.environ
     if unset:
