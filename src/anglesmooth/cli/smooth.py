@@ -154,6 +154,7 @@ def smooth_cmd(input, output, more, method, passes, tol, no_guard, order, fix_gr
                           compiling=bool(compiling)) as callback:
             result = run_smooth(mesh, method, passes, tol=tol, guard=not no_guard, order=order, topology=topo,
                                 callback=callback)
+        release_free_memory()  # the passes' freed temporaries, before the summary's
         after = summarize(result.points, topo)
         gates = evaluate(after, thresholds, result.points, topo)
         document = report.smooth_json(
