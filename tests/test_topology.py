@@ -316,3 +316,41 @@ def test_quad_verdict_measures_row_by_row_equal_the_whole_array_formulas():
         with np.errstate(invalid="ignore"):
             for got, want in ((V._quad_jac(c), jac(c)), (V._quad_condition(c), cond(c))):
                 assert got.shape == want.shape == (n,) and np.array_equal(got.view(np.int64), want.view(np.int64))
+
+
+def _rings_oracle(edges: np.ndarray, n: int):
+    """Per node, a Python loop: the neighbours below it (by lo) then above it (by hi), and each entry's edge."""
+    rows = [[] for _ in range(n)]
+    for e in sorted(range(edges.shape[0]), key=lambda e: (int(edges[e, 1]), int(edges[e, 0]))):
+        rows[int(edges[e, 1])].append((int(edges[e, 0]), e))  # lower part: edges with hi == v, by lo
+    for e in range(edges.shape[0]):  # edges are sorted by (lo, hi): the upper part in order
+        rows[int(edges[e, 0])].append((int(edges[e, 1]), e))
+    offsets = np.cumsum([0] + [len(r) for r in rows])
+    flat = [x for r in rows for x in r]
+    return offsets, np.array([x[0] for x in flat], np.int64), np.array([x[1] for x in flat], np.int64)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_rings_csr_equals_a_per_node_loop(seed):
+    """The ring CSR (radix sort of the edges by hi for the lower parts) equals a per-node loop, self-edges
+    included, on random edge sets of 0 .. 3000 nodes (three radix digits at the largest)."""
+    from anglesmooth.topology.build import _rings
+
+    rng = np.random.default_rng(seed)
+    n = [1, 7, 300, 3000, 70000, 5][seed]
+    pairs = rng.integers(0, n, (3 * n + 2, 2))
+    pairs.sort(axis=1)
+    edges = np.unique(pairs, axis=0).astype(np.int32 if seed % 2 else np.int64)
+    deg = np.bincount(edges.ravel(), minlength=n)
+    offsets, indices, edge = _rings(edges, deg, n)
+    want = _rings_oracle(edges, n)
+    assert np.array_equal(offsets, want[0]) and np.array_equal(indices, want[1]) and np.array_equal(edge, want[2])
+    assert offsets.dtype == indices.dtype == edge.dtype == edges.dtype
+
+
+@pytest.mark.parametrize("name", MESHES)
+def test_free_nodes_are_ordered_by_colour_then_index(name):
+    """The radix sort of the free nodes by colour gives the (colour, index) order of a lexsort."""
+    topo = build_topology(MESHES[name]())
+    free = np.flatnonzero(topo.colour >= 0)
+    assert np.array_equal(topo.free_nodes, free[np.lexsort((free, topo.colour[free]))])

@@ -7,7 +7,7 @@ from dataclasses import fields
 import numpy as np
 
 from ..mesh import Mesh2D
-from ._keys import _cell_shift, _rows_by_loc, _stable_order
+from ._keys import _cell_shift, _radix_order, _rows_by_loc
 from .cells import _cell_topology
 from .colouring import _colour
 from .types import CellTopology, Topology
@@ -40,9 +40,10 @@ def _rings(edges: np.ndarray, deg: np.ndarray, n: int):
     pos += eid
     indices[pos] = hi
     edge[pos] = eid
-    # lower part: the edges in (hi, lo) order; the q-th one is entry q - (first of its hi)
-    by_hi, hi_sorted = _stable_order(hi)
-    pos = (offsets[:-1] - (np.cumsum(n_hi) - n_hi))[hi_sorted]
+    # lower part: the edges in (hi, lo) order (a stable radix sort by hi: O(E), 1M triangles 85 -> 35 ms);
+    # the q-th one is entry q - (first of its hi), and the sorted his are runs of n_hi (a repeat, no gather)
+    by_hi = _radix_order(hi)
+    pos = np.repeat(offsets[:-1] - (np.cumsum(n_hi) - n_hi), n_hi)
     pos += eid
     indices[pos] = lo[by_hi]
     edge[pos] = by_hi
@@ -74,8 +75,9 @@ def _edge_spokes(tri: np.ndarray, quad: np.ndarray, centre: np.ndarray, ring: np
     h_in -= h_out  # j -> p
     idx = ring.dtype
     before = _cell_shift(tri, quad, -1, idx)
-    spoke_b = before[h_in]
-    spoke_a = (_cell_shift(tri, quad, 2, idx) if quad.size else before)[h_out]  # the same node in a triangle
+    # np.take: numpy's fancy indexing with int32 indices is about 1.5x slower (a cast per call), take is not
+    spoke_b = np.take(before, h_in)
+    spoke_a = np.take(_cell_shift(tri, quad, 2, idx) if quad.size else before, h_out)  # the same node in a triangle
     # frac = ideal angle of the a side / both; a side in the cell of p -> j, b side in that of j -> p
     ideal = np.array([TRI_IDEAL, QUAD_IDEAL])
     frac = (ideal[:, None] / (ideal[:, None] + ideal[None, :])).ravel()
@@ -148,7 +150,7 @@ def _incidence(cells: np.ndarray, loc_of: np.ndarray, free_nodes: np.ndarray):
     ext = np.empty(width + (k - 1) * nc, idx)
     ext[:width].reshape(k, nc)[:] = cells.T
     ext[width:] = ext[: (k - 1) * nc]
-    loc, r = _rows_by_loc(loc_of[ext[:width]])
+    loc, r = _rows_by_loc(np.take(loc_of, ext[:width]))
     cell = np.remainder(r, nc, out=np.empty(r.shape[0], idx), casting="same_kind") if nc else r.astype(idx)
     verts = np.empty((r.shape[0], k), idx)
     verts[:, 0] = free_nodes[loc]  # the node itself
@@ -184,7 +186,7 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
     colour = _colour(n, free, np.concatenate(pu, dtype=idx, casting="same_kind"),
                      np.concatenate(pv, dtype=idx, casting="same_kind"))
     free_idx = np.flatnonzero(free).astype(idx)
-    free_nodes = free_idx[_stable_order(colour[free_idx])[0]]
+    free_nodes = free_idx[_radix_order(colour[free_idx])]  # stable; one uint8 pass below 256 colours
     ncol = int(colour.max()) + 1 if free_nodes.size else 0
     block_offsets = np.searchsorted(colour[free_nodes], np.arange(ncol + 1))
     loc_of = np.full(n, -1, idx)
@@ -198,7 +200,8 @@ def build_topology(mesh: Mesh2D, extra_fixed: np.ndarray | None = None) -> Topol
     # edge spokes: one per ring entry (a free node is interior and manifold)
     e = ring_edge[entry]
     del entry, ring_edge
-    spokes = [ring_loc, ring_nbr, *_edge_spokes(tri, quad, free_nodes[ring_loc], ring_nbr, up[e], down[e])]
+    spokes = [ring_loc, ring_nbr, *_edge_spokes(tri, quad, np.take(free_nodes, ring_loc), ring_nbr, np.take(up, e),
+                                                np.take(down, e))]
     del e, up, down
     if nq:
         spokes = _with_diagonals(quad, loc_of, nf, spokes)
