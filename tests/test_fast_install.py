@@ -405,3 +405,15 @@ def test_numba_is_imported_without_error_highlighting_and_the_environment_is_res
     env["NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"] = "1"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
     assert out.stdout.split() == ["NOPColorScheme", "1"]
+
+
+def test_the_kernel_cache_is_stamped_with_every_compiled_module():
+    """A cached kernel holds the compiled helpers it calls from other modules (``_nodescore``): its stamp
+    must cover every module of the package that compiles code, or editing a helper would leave stale
+    kernels in the cache."""
+    from anglesmooth.smoothers import _jitcache
+
+    pkg = Path(_jitcache.__file__).resolve().parent
+    compiling = sorted(str(p) for p in pkg.glob("*.py") if "njit" in p.read_text(encoding="utf-8")
+                       and p.name not in ("_fast.py", "_jitcache.py", "_jitcache_warm.py"))
+    assert compiling == [str(Path(f).resolve()) for f in _jitcache._kernel_files()]

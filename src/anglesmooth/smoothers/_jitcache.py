@@ -14,7 +14,8 @@ Here the kernels of this package are cached in
 and when that directory cannot be written, numba's own locators are tried
 next (``__pycache__``, ``~/.cache/numba``).  The files are keyed by the
 source file's path and content, so several installs or checkouts share the
-directory without mixing their kernels.  Nothing else numba caches is
+directory without mixing their kernels; a cached kernel is stamped with every kernel module
+of the package (:func:`_kernel_files`), as it holds the helpers it calls from the others.  Nothing else numba caches is
 affected: the locator answers only for files of this package.
 """
 
@@ -48,6 +49,11 @@ def cache_dir() -> Path:
     return base / "anglesmooth" / "numba"
 
 
+def _kernel_files() -> list[str]:
+    """The package's compiled-code modules (the kernels and the helpers compiled into them)."""
+    return sorted(os.path.join(_PACKAGE_DIR, f) for f in ("_fastkernels.py", "_nodescore.py", "_patchkernels.py"))
+
+
 def install() -> None:
     """Put the locator in front of numba's own ones (after ``NUMBA_CACHE_DIR``'s); once per process.
 
@@ -73,6 +79,12 @@ def install() -> None:
             self._py_file = py_file
             self._lineno = py_func.__code__.co_firstlineno
             self._cache_path = os.path.join(str(cache_dir()), self.get_suitable_cache_subpath(py_file))
+
+        def get_source_stamp(self):
+            """The stamps of every kernel module of the package, not just the kernel's own file: a kernel's
+            cached code includes the compiled helpers it calls from the others (``_nodescore``), so a change
+            of any of them must invalidate it."""
+            return tuple((os.stat(f).st_mtime, os.stat(f).st_size) for f in _kernel_files())
 
         @classmethod
         def from_function(cls, py_func, py_file):
