@@ -66,8 +66,8 @@ class BlockGeometry:
         self.n, self._t, self.t_rel, t_v, self._q, self.q_rel, q_v, t_ids, q_ids = layout
         self.floors = floors is not None and floors.active
         if self.floors:
-            self.t_fa, self.t_f1, self.t_f2 = (np.take(a, t_ids) for a in floors[:3])
-            self.q_fa, self.q_f1, self.q_f3 = (np.take(a, q_ids) for a in floors[3:6])
+            self.t_fa, self.t_f1, self.t_f2, self.q_fa, self.q_f1, self.q_f3 = _row_floors(
+                topo, floors, None if subset is not None else key[1:], t_ids, q_ids)
         with np.errstate(divide="ignore", invalid="ignore"):
             # triangles (p0 moving, p1, p2 fixed)
             p1, p2 = np.take(points, t_v[0], axis=0), np.take(points, t_v[1], axis=0)
@@ -355,6 +355,29 @@ class BlockGeometry:
         dx, dy = x1 + self.q_ux[r0:r1] - px, y1 + self.q_uy[r0:r1] - py  # p2 - p0
         fx, fy = self.q_x3[r0:r1] - x1, self.q_y3[r0:r1] - y1  # p3 - p1
         return 0.5 * (dx * fy - dy * fx)
+
+
+#: Largest number of incidence rows (triangles' plus quads') of a mesh whose blocks keep their rows'
+#: input floors with the topology (3 floats a row: 7 MB on 100k triangles, a third of
+#: :class:`BlockGeometry`'s set-up a pass; not kept on large meshes, which run the compiled kernels)
+FLOORS_CACHE_ROWS = 1 << 20
+
+
+def _row_floors(topo: Topology, floors: Floors, key, t_ids: np.ndarray, q_ids: np.ndarray) -> tuple:
+    """The input floors of a block's layout rows (``t_ids`` / ``q_ids``): (t_fa, t_f1, t_f2, q_fa, q_f1,
+    q_f3).  Topology and floors only: kept with the topology for a whole block (``key``: its (start,
+    stop)) of a mesh of at most :data:`FLOORS_CACHE_ROWS` rows, until ``topo.release(floors)``."""
+    small = key is not None and topo.tri_loc.shape[0] + topo.quad_loc.shape[0] <= FLOORS_CACHE_ROWS
+    ck = ("geometry-floors",) + tuple(key) if small else None
+    hit = topo._cache.get(ck) if small else None
+    if hit is not None and hit[0] is floors:
+        return hit[1:]
+    out = tuple(np.take(a, t_ids) for a in floors[:3]) + tuple(np.take(a, q_ids) for a in floors[3:6])
+    if small:
+        for a in out:
+            a.flags.writeable = False  # shared by every pass's geometry of the block
+        topo._cache[ck] = (floors,) + out
+    return out
 
 
 def geometry(points: np.ndarray, topo: Topology, blk: Block, floors: Floors | None = None):

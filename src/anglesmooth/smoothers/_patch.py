@@ -80,7 +80,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..topology import Topology
+from ..topology import Topology, signed_areas
 from ._floors import Floors
 from . import _fast, _fastcalls
 from ._patchascent import _Patch, _loc_of, ascend_all
@@ -143,9 +143,9 @@ def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool
     A corner of angle a in (0, 180) has min(a, 180 - a) < b exactly when its cross product is below
     tan(b) times the absolute dot product; the test is padded so that round-off never drops a cell
     (the exact quality then decides), and an invalid corner (cross <= 0) always counts.  Sqrt- and
-    arctan-free, on a few columns at a time.  ``ranges`` (a list; compiled kernels only): the
-    cells' area range per chunk (:func:`._fastcalls.screen_cells`) is appended to it, None where the
-    screen did not run.
+    arctan-free, on a few columns at a time.  ``ranges`` (a list): the cells' area range per chunk,
+    from the same read (:func:`._fastcalls.screen_cells`; numpy: (lo, hi) per :data:`_RANGE_CHUNK`
+    cells), is appended to it, None where the screen did not run.
     """
     m, k = cells.shape
     if m == 0 or below <= 0.0 or below >= 89.0:  # no cell, or none / (almost) every cell: no screen
@@ -160,8 +160,11 @@ def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool
         if ranges is not None:
             ranges.append(rng)
         return ids
-    if ranges is not None:
-        ranges.append(None)
+    rlo = rhi = None
+    if ranges is not None:  # the area range per chunk of _RANGE_CHUNK cells, from the same read
+        n_chunks = -(-m // _RANGE_CHUNK)
+        rlo, rhi = np.empty(n_chunks), np.empty(n_chunks)
+        ranges.append((rlo, rhi))
     # the edges e_c = p_{c+1} - p_c once (the corner's u is e_c, its w is -e_{c-1} exactly), so that
     # cross = uy ex - ux ey and |dot| = |ux ex + uy ey| with e = e_{c-1}: the same bits as from u and w
     z = np.ascontiguousarray(points[:, :2], dtype=np.float64).view(np.complex128).ravel()
@@ -181,7 +184,55 @@ def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool
             dot *= t
             dot += 1e-300
             h |= cr < dot
+            if rlo is not None and i == 0 and k == 3:
+                # twice a triangle's area, signed_areas' bits: its u = e_0 and v = -e_2 exactly, so that
+                # ux vy - uy vx = e0y e2x - e0x e2y, this corner's cross product
+                _chunk_range(0.5 * cr, s0, rlo, rhi)
+        if rlo is not None and k == 4:
+            d02, d13 = zc[2] - zc[0], zc[3] - zc[1]  # signed_areas' diagonals, the same operations
+            _chunk_range(0.5 * (d02.real * d13.imag - d02.imag * d13.real), s0, rlo, rhi)
     return np.flatnonzero(hit)
+
+
+#: cells a chunk of the area range the numpy screen gives (a few chunks are recomputed after stage 5
+#: moved some nodes: :func:`_area_range_np`); a divisor of _CHUNK
+_RANGE_CHUNK = 256
+
+
+def _chunk_range(a: np.ndarray, s0: int, lo: np.ndarray, hi: np.ndarray) -> None:
+    """The smallest and largest of the areas ``a`` of cells ``s0:`` (``s0`` a multiple of
+    :data:`_RANGE_CHUNK`) per chunk of :data:`_RANGE_CHUNK` cells, into ``lo`` / ``hi`` (NaN where one is
+    NaN: numpy's ``min`` / ``max`` propagate it)."""
+    j0, m = s0 // _RANGE_CHUNK, a.shape[0]
+    full = m // _RANGE_CHUNK
+    if full:
+        w = a[: full * _RANGE_CHUNK].reshape(full, _RANGE_CHUNK)
+        lo[j0:j0 + full], hi[j0:j0 + full] = w.min(axis=1), w.max(axis=1)
+    if m > full * _RANGE_CHUNK:
+        lo[j0 + full], hi[j0 + full] = a[full * _RANGE_CHUNK:].min(), a[full * _RANGE_CHUNK:].max()
+
+
+def _area_range_np(points: np.ndarray, topo: Topology, ranges, moved_cells=None):
+    """The numpy screen's twin of :func:`._fastcalls.area_range_of`: the (smallest, largest) signed cell
+    area at ``points`` (``float(areas.min())``, ``float(areas.max())`` of ``signed_areas``: the same
+    values, NaN when one is NaN) from the per-chunk ranges ``ranges`` (of the triangles, of the quads)
+    the screen gave at points that differ from ``points`` only at corners of ``moved_cells`` (their
+    chunks are computed again with ``signed_areas``), or None without cells."""
+    if topo.tri.shape[0] + topo.quad.shape[0] == 0:
+        return None
+    nt = topo.n_tri
+    empty = np.zeros((0, 4), topo.quad.dtype)
+    for cells, (lo, hi, *_), ids, tri in ((topo.tri, ranges[0], None if moved_cells is None else moved_cells[moved_cells < nt], True),
+                                      (topo.quad, ranges[1], None if moved_cells is None else moved_cells[moved_cells >= nt] - nt, False)):
+        if ids is None or not ids.size:
+            continue
+        for j in np.unique(ids // _RANGE_CHUNK).tolist():
+            part = cells[j * _RANGE_CHUNK:(j + 1) * _RANGE_CHUNK]
+            a = signed_areas(points, part, empty) if tri else signed_areas(points, empty[:, :3], part)
+            lo[j], hi[j] = a.min(), a.max()
+    lo = np.concatenate([ranges[0][0], ranges[1][0]])  # (an empty kind: the screen's (empty, empty, empty))
+    hi = np.concatenate([ranges[0][1], ranges[1][1]])
+    return float(lo.min()), float(hi.max())
 
 
 def _blocked(topo: Topology, floors: Floors | None) -> np.ndarray:
@@ -241,7 +292,9 @@ def patch_moves(
         return P
     if rng is None or any(r is None for r in rng):
         return P, None
-    return P, _fastcalls.area_range_of(P, topo, rng, moved)
+    if _fast.active(topo):
+        return P, _fastcalls.area_range_of(P, topo, rng, moved)
+    return P, _area_range_np(P, topo, rng, moved)
 
 
 def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, area_band, area_limits, size, with_range):
@@ -254,7 +307,7 @@ def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, are
     # the exact quality (arctan2) only of the cells a cheap test cannot clear (1M triangles: the
     # exact quality of every cell was most of a pass); the same cells, values and order as from all
     fast = _fast.active(topo)
-    rng = [] if with_range and fast else None
+    rng = [] if with_range else None
     cand = np.concatenate([_maybe_below(P, topo.tri, below, fast, rng), nt + _maybe_below(P, topo.quad, below, fast, rng)])
     qual = np.concatenate([cell_quality(P, topo.tri[cand[cand < nt]]), cell_quality(P, topo.quad[cand[cand >= nt] - nt])])
     keep = qual < np.radians(below)
