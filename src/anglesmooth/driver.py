@@ -118,7 +118,7 @@ def smooth(
     topology : Topology, optional
         A prebuilt topology of ``mesh`` (its fixed mask is used as is).
     callback : callable(pass_index, points, displacement), optional
-        Called after every pass (1-based index), e.g. for progress bars.
+        Called after every pass (1-based index), e.g. for progress bars (``points``: a read-only view).
     **options
         Passed to the method's step function.
     """
@@ -148,18 +148,25 @@ def smooth(
         passes = 0  # every node is fixed: a pass could move nothing (and displacements stay empty)
     if guard and passes and "floors" not in options:
         options["floors"] = input_floors(pts, topo)
+    carry: dict = {}  # what a pass hands the next (the angle method's area range at its points)
     for k in range(passes):
-        new, rej = smoother.step(pts, topo, guard=guard, order=order, **options)
+        res = smoother.step(pts, topo, guard=guard, order=order, **options, **carry)
+        new, rej = res
+        rng = getattr(res, "area_range", None)
+        carry = {} if rng is None else {"area_range": rng}
         if recheck:
             new, n_rev = _revert_new_invalid(pts, new, topo, bad_before)
             reverted += n_rev
+            carry = {}
         disp = _max_move(pts, new) / mean_edge
         pts = new
         rejected += rej
         done = k + 1
         displacements.append(disp)
         if callback is not None:
-            callback(done, pts, disp)
+            view = pts.view()  # read only: the next pass starts from these points (and their carried area range)
+            view.flags.writeable = False
+            callback(done, view, disp)
         if tol is not None and disp <= tol:
             break
     if options.get("floors") is not None:

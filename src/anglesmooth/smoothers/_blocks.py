@@ -35,10 +35,30 @@ def intp(topo: Topology, name: str) -> np.ndarray:
 
 
 class StepResult(NamedTuple):
-    """What one pass of a smoother returns: new (N, 2) points and the number of refused moves."""
+    """What one pass of a smoother returns: new (N, 2) points and the number of refused moves.
+
+    ``area_range``: None, or (a :func:`with_area_range` result) the (smallest, largest) signed cell
+    area at ``points``, which the next pass of the same smoother may take (its ``area_range``) instead
+    of reading every cell again; valid only while ``points`` is not modified.
+    """
 
     points: np.ndarray
     rejected: int
+
+    area_range = None
+
+
+class _RangedStepResult(StepResult):
+    """A :class:`StepResult` that carries ``area_range`` (an instance attribute; still a 2-tuple)."""
+
+
+def with_area_range(res: StepResult, area_range) -> StepResult:
+    """``res`` with ``area_range`` (see :class:`StepResult`); ``res`` itself when it is None."""
+    if area_range is None:
+        return res
+    out = _RangedStepResult(*res)
+    out.area_range = area_range
+    return out
 
 
 def run_blocks(

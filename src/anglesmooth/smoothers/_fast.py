@@ -114,9 +114,12 @@ CHUNKS_PER_THREAD = 4
 #: (:func:`area_limits`) is a mesh-wide loop, not split per node (hence private).  The default
 #: ``angle`` kernels in one process measured 6.0 s with stage 5's screen (median of 3, loaded VM;
 #: 7.1 s before the helpers were called instead of inlined); the estimate for them is 5.7 s
-#: (``_screen_below``: stage 5's screen, in :mod:`._patchkernels`, named here with the others).
+#: (``_screen_below``: stage 5's screen, in :mod:`._patchkernels`, named here with the others; with
+#: ``_chunk_ranges`` and ``_fold_range`` it gives the next pass's area range: 0.4, 0.25, 0.15 s measured
+#: on a cold cache, loaded VM).
 COMPILE_S = {"angle_choose": 2.2, "angle_optimize": 1.0, "compass": 0.9, "score": 0.4, "ring_mean": 0.35,
-             "angle_target": 0.2, "_cell_area_range": 0.3, "_screen_below": 0.2}
+             "angle_target": 0.2, "_cell_area_range": 0.3, "_screen_below": 0.4, "_chunk_ranges": 0.25,
+             "_fold_range": 0.15}
 _DEFAULT_COMPILE_S = 2.0
 #: numba's first compile in a process (its own set-up) and the shared overloads (``np.empty``,
 #: ``min`` / ``max`` of tuples), s: paid once, by whichever kernel is first
@@ -127,7 +130,7 @@ _SHARED_S = {"_node_score_rows": (0.9, ("angle_choose", "angle_optimize", "compa
              "_node_angle": (0.25, ("angle_choose", "angle_target"))}
 #: The kernels a method's default run calls (for :func:`compile_estimate`; a hint, not a contract).
 METHOD_KERNELS = {
-    "angle": ("angle_choose", "angle_optimize", "_cell_area_range", "_screen_below"),
+    "angle": ("angle_choose", "angle_optimize", "_cell_area_range", "_screen_below", "_chunk_ranges", "_fold_range"),
     "laplacian": ("ring_mean", "score"),
     "smart-laplacian": ("ring_mean", "score"),
     "optimization": ("ring_mean", "compass"),
@@ -139,7 +142,8 @@ METHOD_KERNELS = {
 # argument that is none of these runs whole on one thread (tests/test_fast_install.py checks that
 # every kernel's parameters are known)
 PER_NODE = {"nodes": 0, "x": 0, "X": 1, "scale": 0}
-SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "sap", "rp", "nbr", "tp", "tv", "qp", "qv", "directions", "fl"}
+SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "sap", "rp", "nbr", "tp", "tv", "qp", "qv", "directions", "fl",
+          "flnode"}
 SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest", "alo", "ahi", "strict", "best", "certify",
            "resume_iterations", "resume_radius", "resume_above"}  # or one value per node, or empty
 

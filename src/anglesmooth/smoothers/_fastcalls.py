@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _fast
 from ._fast import COMPILE_S, _k, _run
 
 __all__ = [
@@ -21,6 +22,7 @@ __all__ = [
     "area_limits",
     "laplacian_target",
     "local_scale",
+    "screen_cells",
     "warm_up",
 ]
 
@@ -113,9 +115,79 @@ def area_limits(points: np.ndarray, topo):
     return float(lo), float(hi)
 
 
+def screen_cells(points: np.ndarray, cells: np.ndarray, t: float):
+    """Stage 5's screen of ``cells`` (``_patch._maybe_below``'s test with the padded tangent ``t``) fused
+    with their area range: (ids of the cells it keeps, ascending; (lo, hi, nan) per chunk of
+    ``_patchkernels.RANGE_CHUNK`` cells, see :func:`area_range_of`).  The cells are cut into spans of
+    whole chunks that :func:`._fast.threads` threads take (one thread below ``2 * MIN_CHUNK`` cells)."""
+    pts = np.ascontiguousarray(points[:, :2], dtype=np.float64)
+    m = cells.shape[0]
+    rc = _k().RANGE_CHUNK
+    n_chunks = -(-m // rc)
+    out = np.empty(m, np.bool_)
+    lo, hi, nan = np.empty(n_chunks), np.empty(n_chunks), np.empty(n_chunks, np.bool_)
+    fn = _k()._screen_below
+    n_threads = _fast.threads(m) if m >= 2 * _fast.MIN_CHUNK else 1
+    if n_threads == 1:
+        _run(fn, pts, cells, t, 0, m, out, lo, hi, nan)
+    else:
+        _fast._prepare(fn, (pts, cells, t, 0, m, out, lo, hi, nan))
+        cuts = (np.linspace(0, n_chunks, n_threads + 1).astype(np.int64) * rc).tolist()
+        cuts[-1] = m
+        pool = _fast._get_pool(n_threads - 1)
+        jobs = [pool.submit(fn, pts, cells, t, a, b, out, lo, hi, nan) for a, b in zip(cuts[1:-1], cuts[2:])]
+        try:
+            fn(pts, cells, t, cuts[0], cuts[1], out, lo, hi, nan)
+        finally:
+            for j in jobs:  # wait for the others even when this thread failed (they write the arrays)
+                j.exception()
+        for j in jobs:
+            j.result()
+    return np.flatnonzero(out), (lo, hi, nan)
+
+
+def area_range_of(points: np.ndarray, topo, ranges, moved_cells=None):
+    """The (smallest, largest) signed cell area at ``points`` from the per-chunk ranges ``ranges`` =
+    [(lo, hi, nan) of the triangles, of the quads] that :func:`screen_cells` gave at points that differ
+    from ``points`` only at corners of the cells ``moved_cells`` (ids: triangles, then quads from
+    ``topo.n_tri``; their chunks are computed again): :func:`area_limits`' numbers exactly (the same
+    areas folded in the same order), or None without cells."""
+    if topo.tri.shape[0] + topo.quad.shape[0] == 0:
+        return None
+    k = _k()
+    rc = k.RANGE_CHUNK
+    pts = np.ascontiguousarray(points, dtype=np.float64)
+    if moved_cells is not None and moved_cells.size:
+        nt = topo.n_tri
+        for cells, (lo, hi, nan), ids in ((topo.tri, ranges[0], moved_cells[moved_cells < nt]),
+                                          (topo.quad, ranges[1], moved_cells[moved_cells >= nt] - nt)):
+            if ids.size:
+                _run(k._chunk_ranges, pts, cells, np.unique(ids // rc).astype(np.int64), lo, hi, nan)
+    lo, hi = _run(k._fold_range, *(np.concatenate([a, b]) for a, b in zip(*ranges)))
+    return float(lo), float(hi)
+
+
 def _floors(floors) -> np.ndarray:
     """The input floors (``_floors.Floors`` or None) as the (6, rows) array the kernels take; (0, 0) for none."""
     return np.zeros((0, 0)) if floors is None or not floors.active else floors.packed
+
+
+def _floored_nodes(topo, floors) -> np.ndarray:
+    """Per free node: some incidence row of it has a nonzero input floor (``angle_choose``'s ``flnode``);
+    empty without floors.  Cached per floors (n_free bytes)."""
+    if floors is None or not floors.active:
+        return np.zeros(0, np.bool_)
+    key = ("floored-nodes", id(floors))
+    hit = topo._cache.get(key)
+    if hit is None or hit[0] is not floors:
+        out = np.zeros(topo.n_free, np.bool_)
+        for loc, cols in ((topo.tri_loc, floors[0:3]), (topo.quad_loc, floors[3:6])):
+            some = np.zeros(loc.shape[0], np.bool_)
+            for c in cols:
+                some |= c[: loc.shape[0]] != 0
+            out[loc[some]] = True
+        hit = topo._cache[key] = (floors, out)
+    return hit[1]
 
 
 def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, nearest=False, certify=None):
@@ -138,7 +210,8 @@ def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, ne
         _k().angle_choose,
         points, _nodes(blk), topo.free_nodes, sp, topo.spoke_ring, topo.spoke_a, topo.spoke_b, topo.spoke_frac,
         _spoke_partner(topo), rp, topo.ring_nbr, tp, topo.tri_verts, qp, topo.quad_verts, good, _floors(floors),
-        np.zeros(0, np.bool_) if keep is None else np.array(keep, dtype=np.bool_), bool(nearest),
+        _floored_nodes(topo, floors), np.zeros(0, np.bool_) if keep is None else np.array(keep, dtype=np.bool_),
+        bool(nearest),
         np.zeros(0) if certify is None else np.ascontiguousarray(certify, dtype=np.float64),
     )
 
@@ -242,8 +315,8 @@ def warm_up(kernels=None) -> None:
                            None, 1, 0.0625, 0.5)
     if "_cell_area_range" in want:
         area_limits(pts, topo)
-    if "_screen_below" in want:  # stage 5's screen, with the arguments _patch._maybe_below gives it
-        for cells in (topo.tri, topo.quad):
-            _run(_k()._screen_below, np.ascontiguousarray(pts[:, :2]), cells, 1.0)
+    if want & {"_screen_below", "_chunk_ranges", "_fold_range"}:  # stage 5's screen, the area range it carries
+        ranges = [screen_cells(pts, cells, 1.0)[1] for cells in (topo.tri, topo.quad)]
+        area_range_of(pts, topo, ranges, np.array([0, topo.n_tri]))
 
 

@@ -82,7 +82,7 @@ import numpy as np
 
 from ..topology import Topology
 from ._floors import Floors
-from . import _fast
+from . import _fast, _fastcalls
 from ._patchascent import _Patch, _loc_of, ascend_all
 
 __all__ = ["patch_moves"]
@@ -137,25 +137,31 @@ def cell_quality(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return np.where((cr > 0).all(axis=0), th.min(axis=0), -1.0)
 
 
-def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool = False) -> np.ndarray:
+def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool = False, ranges=None) -> np.ndarray:
     """Ids (ascending) of a superset of the cells whose :func:`cell_quality` is below ``below`` degrees.
 
     A corner of angle a in (0, 180) has min(a, 180 - a) < b exactly when its cross product is below
     tan(b) times the absolute dot product; the test is padded so that round-off never drops a cell
     (the exact quality then decides), and an invalid corner (cross <= 0) always counts.  Sqrt- and
-    arctan-free, on a few columns at a time.
+    arctan-free, on a few columns at a time.  ``ranges`` (a list; compiled kernels only): the
+    cells' area range per chunk (:func:`._fastcalls.screen_cells`) is appended to it, None where the
+    screen did not run.
     """
     m, k = cells.shape
-    if m == 0 or below <= 0.0:
-        return np.zeros(0, np.intp)
-    if below >= 89.0:  # (almost) every cell: no screen
-        return np.arange(m)
+    if m == 0 or below <= 0.0 or below >= 89.0:  # no cell, or none / (almost) every cell: no screen
+        if ranges is not None:
+            ranges.append((np.empty(0), np.empty(0), np.empty(0, bool)) if m == 0 else None)
+        return np.zeros(0, np.intp) if m == 0 or below <= 0.0 else np.arange(m)
     t = np.tan(np.radians(below)) * (1.0 + 1e-6)
-    if fast:  # the same test, compiled (``fast``: the mesh runs on the compiled kernels)
-        from ._patchkernels import _screen_below
-
-        # through _fast: its compile (0.2-0.4 s, the first run ever) is timed apart, as every kernel's
-        return np.flatnonzero(_fast._run(_screen_below, np.ascontiguousarray(points[:, :2]), cells, t))
+    if fast:  # the same test, compiled (``fast``: the mesh runs on the compiled kernels), threaded, with
+        # the cells' area range in the same read (the next pass's ``area_limits``); through _fast: its
+        # compile (0.2-0.4 s, the first run ever) is timed apart, as every kernel's
+        ids, rng = _fastcalls.screen_cells(points, cells, t)
+        if ranges is not None:
+            ranges.append(rng)
+        return ids
+    if ranges is not None:
+        ranges.append(None)
     # the edges e_c = p_{c+1} - p_c once (the corner's u is e_c, its w is -e_{c-1} exactly), so that
     # cross = uy ex - ux ey and |dot| = |ux ex + uy ey| with e = e_{c-1}: the same bits as from u and w
     z = np.ascontiguousarray(points[:, :2], dtype=np.float64).view(np.complex128).ravel()
@@ -221,12 +227,26 @@ def patch_moves(
     area_band: float | None = 0.8,
     area_limits: tuple[float, float] | None = None,
     size: float | None = SIZE,
-) -> np.ndarray:
+    with_range: bool = False,
+):
     """The points with the patches of the worst cells moved (see the module docstring).
 
     ``size``: a cell of ``size`` x the input's median cell area (``floors.area_median``) counts in the
     patch's minimum like a corner of ``below`` degrees, smaller cells proportionally less (None, or no
-    floors: angles only)."""
+    floors: angles only).  ``with_range``: (points, the (smallest, largest) signed cell area at them,
+    :func:`._fastcalls.area_limits`' numbers, or None where the compiled screen did not give it)."""
+    P, rng, moved = _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, area_band, area_limits,
+                                 size, with_range)
+    if not with_range:
+        return P
+    if rng is None or any(r is None for r in rng):
+        return P, None
+    return P, _fastcalls.area_range_of(P, topo, rng, moved)
+
+
+def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, area_band, area_limits, size, with_range):
+    """:func:`patch_moves`: (points, the screen's per-chunk area ranges or None, the ids of the cells whose
+    corners moved, or None)."""
     P = np.asarray(points, dtype=np.float64)
     nt = topo.n_tri
     blocked = _blocked(topo, floors)
@@ -234,19 +254,20 @@ def patch_moves(
     # the exact quality (arctan2) only of the cells a cheap test cannot clear (1M triangles: the
     # exact quality of every cell was most of a pass); the same cells, values and order as from all
     fast = _fast.active(topo)
-    cand = np.concatenate([_maybe_below(P, topo.tri, below, fast), nt + _maybe_below(P, topo.quad, below, fast)])
+    rng = [] if with_range and fast else None
+    cand = np.concatenate([_maybe_below(P, topo.tri, below, fast, rng), nt + _maybe_below(P, topo.quad, below, fast, rng)])
     qual = np.concatenate([cell_quality(P, topo.tri[cand[cand < nt]]), cell_quality(P, topo.quad[cand[cand >= nt] - nt])])
     keep = qual < np.radians(below)
     cand, qual = cand[keep], qual[keep]
     if not cand.size:
-        return P
+        return P, rng, None
     S = None
     if size and floors is not None and floors.area_median > 0:
         S = np.radians(below) / (size * floors.area_median)
     used_cells = np.zeros(nt + topo.n_quad, bool)
     out = P.copy()
     done = 0
-    patches = []
+    patches, patch_cells = [], []
     for i in _worst_first(qual, 4 * cells + 16):  # at most a few dozen candidates, at most ``cells`` patches
         if done >= cells:
             break
@@ -264,8 +285,10 @@ def patch_moves(
             continue
         used_cells[ids] = True
         patches.append(_Patch(P, topo, nodes, ids, floors, S))
+        patch_cells.append(ids)
     # the patches share no cell, so none has another's moving nodes among its cells: all at once
     for patch, X in zip(patches, ascend_all(patches, [P[p.nodes] for p in patches], iterations, np.radians(eps),
                                             area_band, area_limits)):
         out[patch.nodes] = X
-    return out
+    moved = np.concatenate(patch_cells) if patch_cells else None  # (every patch's cells: a superset)
+    return out, rng, moved

@@ -24,25 +24,78 @@ def _corner_below(ux, uy, px, py, t):
     return uy * px - ux * py < abs(ux * px + uy * py) * t + 1e-300
 
 
+#: cells a chunk of the area range :func:`_screen_below` gives with the screen (a few chunks are
+#: recomputed after stage 5 moved some nodes: :func:`_chunk_ranges`)
+RANGE_CHUNK = 256
+
+
 @_compiled
-def _screen_below(pts, cells, t):
-    """(m,) bool: some corner of the cell has cross < t * |dot| + 1e-300 (see ``_patch._maybe_below``);
-    the edges e_c = p_{c+1} - p_c in scalars, the same operations as the numpy screen."""
-    m, k = cells.shape
-    out = np.zeros(m, np.bool_)
-    if k == 3:
-        for i in range(m):
-            a, b, c = cells[i, 0], cells[i, 1], cells[i, 2]
-            x0, y0, x1, y1, x2, y2 = pts[a, 0], pts[a, 1], pts[b, 0], pts[b, 1], pts[c, 0], pts[c, 1]
-            e0x, e0y, e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x0 - x2, y0 - y2
-            out[i] = (_corner_below(e0x, e0y, e2x, e2y, t) or _corner_below(e1x, e1y, e0x, e0y, t)
-                      or _corner_below(e2x, e2y, e1x, e1y, t))
-        return out
-    for i in range(m):
-        a, b, c, d = cells[i, 0], cells[i, 1], cells[i, 2], cells[i, 3]
-        x0, y0, x1, y1, x2, y2, x3, y3 = (pts[a, 0], pts[a, 1], pts[b, 0], pts[b, 1], pts[c, 0], pts[c, 1],
-                                          pts[d, 0], pts[d, 1])
-        e0x, e0y, e1x, e1y, e2x, e2y, e3x, e3y = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x3 - x2, y3 - y2, x0 - x3, y0 - y3
-        out[i] = (_corner_below(e0x, e0y, e3x, e3y, t) or _corner_below(e1x, e1y, e0x, e0y, t)
-                  or _corner_below(e2x, e2y, e1x, e1y, t) or _corner_below(e3x, e3y, e2x, e2y, t))
-    return out
+def _screen_below(pts, cells, t, c0, c1, out, lo, hi, nan):
+    """Cells ``c0:c1`` (``c0`` a multiple of :data:`RANGE_CHUNK`): ``out[i]`` some corner of cell i has
+    cross < t * |dot| + 1e-300 (see ``_patch._maybe_below``; the edges e_c = p_{c+1} - p_c in scalars,
+    the same operations as the numpy screen), and per chunk j of :data:`RANGE_CHUNK` cells the smallest
+    and largest signed area ``lo[j]``, ``hi[j]`` (``_fastkernels._cell_area_range``' operations, in its
+    order; ``nan[j]``: one is NaN).  One read of the cells for the screen and the next pass's area
+    range (:func:`_fold_range`); a part of the cells each, so that threads can share a call."""
+    k = cells.shape[1]
+    for j0 in range(c0, c1, RANGE_CHUNK):
+        j1 = min(j0 + RANGE_CHUNK, c1)
+        l, h, bad = np.inf, -np.inf, False
+        if k == 3:
+            for i in range(j0, j1):
+                a, b, c = cells[i, 0], cells[i, 1], cells[i, 2]
+                x0, y0, x1, y1, x2, y2 = pts[a, 0], pts[a, 1], pts[b, 0], pts[b, 1], pts[c, 0], pts[c, 1]
+                e0x, e0y, e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x0 - x2, y0 - y2
+                out[i] = (_corner_below(e0x, e0y, e2x, e2y, t) | _corner_below(e1x, e1y, e0x, e0y, t)
+                          | _corner_below(e2x, e2y, e1x, e1y, t))
+                ar = 0.5 * ((x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0))
+                bad |= ar != ar
+                l, h = min(l, ar), max(h, ar)
+        else:
+            for i in range(j0, j1):
+                a, b, c, d = cells[i, 0], cells[i, 1], cells[i, 2], cells[i, 3]
+                x0, y0, x1, y1, x2, y2 = pts[a, 0], pts[a, 1], pts[b, 0], pts[b, 1], pts[c, 0], pts[c, 1]
+                x3, y3 = pts[d, 0], pts[d, 1]
+                e0x, e0y, e1x, e1y = x1 - x0, y1 - y0, x2 - x1, y2 - y1
+                e2x, e2y, e3x, e3y = x3 - x2, y3 - y2, x0 - x3, y0 - y3
+                out[i] = (_corner_below(e0x, e0y, e3x, e3y, t) | _corner_below(e1x, e1y, e0x, e0y, t)
+                          | _corner_below(e2x, e2y, e1x, e1y, t) | _corner_below(e3x, e3y, e2x, e2y, t))
+                ar = 0.5 * ((x2 - x0) * (y3 - y1) - (y2 - y0) * (x3 - x1))
+                bad |= ar != ar
+                l, h = min(l, ar), max(h, ar)
+        j = j0 // RANGE_CHUNK
+        lo[j], hi[j], nan[j] = l, h, bad
+
+
+@_compiled
+def _chunk_ranges(pts, cells, chunks, lo, hi, nan):
+    """The area range of the chunks ``chunks`` of :func:`_screen_below` again (after some nodes moved):
+    the same operations and order, into ``lo``, ``hi``, ``nan``."""
+    k = cells.shape[1]
+    m = cells.shape[0]
+    for q in range(chunks.shape[0]):
+        j = chunks[q]
+        l, h, bad = np.inf, -np.inf, False
+        for i in range(j * RANGE_CHUNK, min((j + 1) * RANGE_CHUNK, m)):
+            if k == 3:
+                a, b, c = cells[i, 0], cells[i, 1], cells[i, 2]
+                x0, y0 = pts[a, 0], pts[a, 1]
+                ar = 0.5 * ((pts[b, 0] - x0) * (pts[c, 1] - y0) - (pts[b, 1] - y0) * (pts[c, 0] - x0))
+            else:
+                a, b, c, d = cells[i, 0], cells[i, 1], cells[i, 2], cells[i, 3]
+                ar = 0.5 * ((pts[c, 0] - pts[a, 0]) * (pts[d, 1] - pts[b, 1]) - (pts[c, 1] - pts[a, 1]) * (pts[d, 0] - pts[b, 0]))
+            bad |= ar != ar
+            l, h = min(l, ar), max(h, ar)
+        lo[j], hi[j], nan[j] = l, h, bad
+
+
+@_compiled
+def _fold_range(lo, hi, nan):
+    """(smallest, largest) of the chunks' ranges, in order with ``min`` / ``max`` as
+    ``_cell_area_range`` folds its cells (a first-of-equals selection: the same bits, a zero's sign
+    included); (NaN, NaN) when a chunk has a NaN; (inf, -inf) for none."""
+    l, h, bad = np.inf, -np.inf, False
+    for j in range(lo.shape[0]):
+        bad |= nan[j]
+        l, h = min(l, lo[j]), max(h, hi[j])
+    return (np.nan, np.nan) if bad else (l, h)

@@ -136,7 +136,7 @@ import numpy as np
 
 from ..topology import Topology, signed_areas
 from . import _fast, _fastcalls
-from ._blocks import StepResult, run_blocks
+from ._blocks import StepResult, run_blocks, with_area_range
 from ._floors import Floors
 from ._local import _COMPASS, INVALID, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
 from ._patch import patch_moves
@@ -194,6 +194,7 @@ def step(
     patch_below: float = 30.0,
     patch_iterations: int = 15,
     floors: Floors | None = None,
+    area_range: tuple[float, float] | None = None,
 ) -> StepResult:
     """One angle-based pass.
 
@@ -243,6 +244,11 @@ def step(
     floors : :class:`._floors.Floors` or None
         Input floors of the guard (see :func:`._floors.input_floors`; the
         driver passes them).
+    area_range : (float, float) or None
+        The smallest and largest signed cell area at ``points``, if the caller has them: the
+        previous pass's ``StepResult.area_range`` (the compiled kernels' default pass gives it, from
+        stage 5's screen, which reads every cell anyway), so that this pass need not read every cell
+        for ``area_limits``; None: computed here.  The same numbers either way.
     area_band : float or None
         During that optimization a node's smallest incident cell keeps at least
         ``area_band`` of its area and its largest grows at most ``1/area_band``
@@ -260,7 +266,9 @@ def step(
     fast = guard and hybrid and _fast.active(topo)
     limits = None
     if guard and hybrid and opt_iterations > 0 and area_band is not None and area_limits:
-        if fast:  # the same two numbers, one compiled loop
+        if area_range is not None:  # the previous pass's (the same numbers)
+            limits = (float(area_range[0]), float(area_range[1]))
+        elif fast:  # the same two numbers, one compiled loop
             limits = _fastcalls.area_limits(points, topo)
         else:
             areas = signed_areas(points, topo.tri, topo.quad)
@@ -382,8 +390,10 @@ def step(
     # the literal rule and the compiled default read no current positions (their kernels do)
     res = run_blocks(points, topo, order, update, current=guard and not fast)
     if guard and hybrid and patch_cells > 0:  # stage 5: numpy, on a few nodes, the same for either kernel
-        pts = patch_moves(res.points, topo, floors, below=patch_below, cells=patch_cells, iterations=patch_iterations,
-                          area_band=area_band,
-                          area_limits=limits)
-        return StepResult(pts, res.rejected)
+        # with the compiled kernels, stage 5's screen reads every cell anyway: it gives the next pass's
+        # area range too (1M triangles: ~12 ms a pass of reading the cells again at the next start)
+        pts, rng = patch_moves(res.points, topo, floors, below=patch_below, cells=patch_cells,
+                               iterations=patch_iterations, area_band=area_band, area_limits=limits,
+                               with_range=True)
+        return with_area_range(StepResult(pts, res.rejected), rng)
     return res
