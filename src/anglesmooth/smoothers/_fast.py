@@ -221,53 +221,16 @@ def would_help(topo) -> bool:
 def _k():
     global _kernels
     if _kernels is None:
-        from . import _jitcache
+        from . import _jitcache, _leanload
 
         _numba_available()  # numba's first import, as configured there
 
         _jitcache.install()  # before the kernels are decorated: numba picks their cache location then
         from . import _fastkernels
 
-        if _lean["on"]:
-            _skip_blas_probe()
+        _leanload.before_first_kernel()
         _kernels = _fastkernels
     return _kernels
-
-
-#: ``on``: this process is the CLI's (:func:`lean_load`), so numba's one BLAS probe may be skipped
-_lean = {"on": False}
-
-
-def lean_load(on: bool = True) -> None:
-    """Let :func:`_k` skip numba's BLAS probe (:func:`_skip_blas_probe`): only for a process that runs
-    nothing compiled but these kernels (the CLI), as it changes numba's ``_HAVE_BLAS`` for the process."""
-    _lean["on"] = bool(on)
-
-
-def _skip_blas_probe() -> None:
-    """Import ``numba.np.arraymath`` with ``scipy.linalg`` unimportable, unless either is imported already.
-
-    numba imports that module when it loads its first kernel (from the cache too) and probes there
-    once for a BLAS by importing ``scipy.linalg``, which pulls in scipy's array API layer and
-    ``numpy.f2py``: 0.2 s of a warm 1M-triangle CLI run's 0.5 s kernel load (0.36 -> 0.13 s for the
-    default ``angle`` kernels, issue 17).  The probe's answer (``_HAVE_BLAS``) only picks BLAS for
-    the inner products of numba's ``np.cov`` / ``np.corrcoef`` / ``np.vdot`` overloads, which no
-    kernel here calls (``np.dot`` and ``np.linalg`` check for scipy on their own, when compiled);
-    the kernels' cached code is the same either way.  A thread that imports ``scipy.linalg`` in this
-    very moment would fail: the CLI's other thread does not import.
-    """
-    import sys
-
-    if "numba.np.arraymath" in sys.modules or "scipy.linalg" in sys.modules:
-        return
-    sys.modules["scipy.linalg"] = None  # type: ignore[assignment]  # "import scipy.linalg" raises ImportError
-    try:
-        import numba.np.arraymath  # noqa: F401
-    except Exception:  # noqa: BLE001 - numba's layout moved: its first kernel load imports it as usual
-        pass
-    finally:
-        if sys.modules.get("scipy.linalg", 0) is None:
-            del sys.modules["scipy.linalg"]
 
 
 def _cores() -> int:
