@@ -42,6 +42,7 @@ Usage::
     PYTHONPATH=src python benchmarks/bench_speed.py --kernels numpy,numba   # both kernels, every size
     PYTHONPATH=src python benchmarks/bench_speed.py --tiny          # seconds; what the test runs
     PYTHONPATH=src python benchmarks/bench_speed.py --sizes 1M --load 2 --cold-size 200k
+    PYTHONPATH=src python benchmarks/bench_speed.py --targets-of out.json   # the targets table of a saved run
 
 No number here is asserted anywhere: the benchmark prints, it does not judge.
 """
@@ -754,7 +755,11 @@ def main(argv: list[str] | None = None) -> int:
                     help="run the workers with the package in DIR (e.g. another checkout's src/: a before/after "
                          "comparison with the same harness); default: this checkout's src/")
     ap.add_argument("--json", metavar="PATH", help="also write the rows as JSON")
+    ap.add_argument("--targets-of", metavar="PATH", help="only print the targets table of a run saved with --json")
     args = ap.parse_args(argv)
+    if args.targets_of:
+        print(targets_table(json.loads(Path(args.targets_of).read_text())["rows"]))
+        return 0
     global SRC
     if args.src:
         SRC = Path(args.src).resolve()
