@@ -6,7 +6,8 @@ every case in its own subprocess so that the peak RSS of each case is its own:
 * random Delaunay triangle meshes (10k, 100k, 1M triangles) and a jittered
   all-quad mesh (~250k quads);
 * for every method of ``anglesmooth.smoothers.SMOOTHERS`` with the guard on,
-  plus ``angle`` with the guard off: topology set-up time, median time per pass
+  plus ``angle`` with the guard off: topology set-up time (``setup s``; the
+  guarded passes' input floors, the rest of the driver's set-up, apart in ``floors``), median time per pass
   over ``--repeat`` passes, peak RSS, and the ratio to ``laplacian`` of the
   same mesh and run;
 * a single ``np.bincount``-based Laplacian pass (the floor ``laplacian`` is
@@ -29,7 +30,10 @@ every case in its own subprocess so that the peak RSS of each case is its own:
 * cold and warm first run (``--cold-size``, default 200k triangles): the CLI
   with an empty kernel cache directory, then again with the filled one, and the
   first pass of the library alone in both states, with the compile (or load)
-  time reported apart (a third table).
+  time reported apart (a third table);
+* issue 17's targets (end to end / meshio, set-up, peak RSS, cold - warm,
+  compiled / numpy on a busy machine) beside what this run measured, with the
+  distance to each (the last table, :mod:`speed_targets`).
 
 Usage::
 
@@ -38,6 +42,7 @@ Usage::
     PYTHONPATH=src python benchmarks/bench_speed.py --kernels numpy,numba   # both kernels, every size
     PYTHONPATH=src python benchmarks/bench_speed.py --tiny          # seconds; what the test runs
     PYTHONPATH=src python benchmarks/bench_speed.py --sizes 1M --load 2 --cold-size 200k
+    PYTHONPATH=src python benchmarks/bench_speed.py --targets-of out.json   # the targets table of a saved run
 
 No number here is asserted anywhere: the benchmark prints, it does not judge.
 """
@@ -56,6 +61,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from speed_targets import targets_table
 
 SIZES = {"10k": ("tri", 10_000), "100k": ("tri", 100_000), "1M": ("tri", 1_000_000), "quad250k": ("quad", 250_000)}
 EXTRA_SIZES = {"quad100k": ("quad", 100_000), "quad1M": ("quad", 1_000_000), "200k": ("tri", 200_000)}  # only when asked for: --sizes quad1M
@@ -188,7 +194,9 @@ def worker_method(npz: str, method: str, guard: bool, repeat: int, threads: int 
     step = SMOOTHERS[method].step
     pts = np.array(mesh.points)
     # a guarded pass gets the input floors, as the driver (and so the CLI) gives them, computed once per run
+    t0 = time.perf_counter()
     opts = {"floors": input_floors(pts, topo)} if guard else {}
+    floors = time.perf_counter() - t0 if guard else None  # the rest of the driver's set-up
     times = []
     loaders = _busy_loops(load)
     try:
@@ -201,7 +209,7 @@ def worker_method(npz: str, method: str, guard: bool, repeat: int, threads: int 
             cpu.append(time.process_time() - c0)
     finally:
         _stop(loaders)
-    out = {"setup_s": setup, "pass_s": statistics.median(times), "passes_s": times, "peak_rss_mb": _peak_rss_mb(),
+    out = {"setup_s": setup, "floors_s": floors, "pass_s": statistics.median(times), "passes_s": times, "peak_rss_mb": _peak_rss_mb(),
            "pass_cpu_s": statistics.median(cpu),
            "kernel": kernel, "jit_s": jit, "load": load,
            "threads": (_fast.threads(max(b.nodes.stop - b.nodes.start for b in topo.blocks())) if kernel == "numba"
@@ -561,6 +569,8 @@ def run(sizes: dict, repeat: int, cli: bool, tmp: Path, slow_repeat: int | None 
             for (method, guard, *loaded), r in results.items():
                 row = {"mesh": name, "cells": info["n_cells"], "nodes": info["n_points"],
                        "method": f"{method} (loaded)" if loaded else method, "guard": guard}
+                if loaded:
+                    row["threads_asked"] = loaded[1] if loaded[1] != "numpy" else 0
                 row.update({k: v for k, v in r.items() if k != "passes_s"})
                 if lap and "pass_s" in r:
                     row["ratio_to_laplacian"] = r["pass_s"] / lap
@@ -607,7 +617,7 @@ def _fmt(v, spec):
 
 def table(rows: list[dict]) -> str:
     head = (f"{'mesh':>9} {'cells':>9} {'method':<22} {'guard':<5} {'kernel':<6} {'thr':>3} {'load':>4} "
-            f"{'setup s':>8} {'jit s':>6} "
+            f"{'setup s':>8} {'floors':>6} {'jit s':>6} "
             f"{'s/pass':>8} {'cpu s':>6} {'x lap':>6} {'x lit':>6} {'x bincnt':>8} {'e2e s':>7} {'x meshio':>8} "
             f"{'RSS MB':>7}")
     lines = [head, "-" * len(head)]
@@ -620,7 +630,7 @@ def table(rows: list[dict]) -> str:
         lines.append(
             f"{r['mesh']:>9} {r['cells']:>9} {r['method']:<22} {guard:<5} {kernel:<6} {_fmt(r.get('threads'), '3d')} "
             f"{_fmt(r.get('load'), '4d')} {_fmt(r.get('setup_s'), '8.2f')} "
-            f"{_fmt(r.get('jit_s'), '6.2f')} {_fmt(r.get('pass_s'), '8.3f')} {_fmt(r.get('pass_cpu_s'), '6.3f')} "
+            f"{_fmt(r.get('floors_s'), '6.2f')} {_fmt(r.get('jit_s'), '6.2f')} {_fmt(r.get('pass_s'), '8.3f')} {_fmt(r.get('pass_cpu_s'), '6.3f')} "
             f"{_fmt(r.get('ratio_to_laplacian'), '6.2f')} {_fmt(r.get('ratio_to_literal'), '6.2f')} "
             f"{_fmt(r.get('ratio_to_bincount'), '8.1f')} {_fmt(r.get('e2e_s'), '7.2f')} "
             f"{_fmt(r.get('ratio_to_meshio'), '8.2f')} {_fmt(r.get('peak_rss_mb'), '7.0f')}"
@@ -745,7 +755,11 @@ def main(argv: list[str] | None = None) -> int:
                     help="run the workers with the package in DIR (e.g. another checkout's src/: a before/after "
                          "comparison with the same harness); default: this checkout's src/")
     ap.add_argument("--json", metavar="PATH", help="also write the rows as JSON")
+    ap.add_argument("--targets-of", metavar="PATH", help="only print the targets table of a run saved with --json")
     args = ap.parse_args(argv)
+    if args.targets_of:
+        print(targets_table(json.loads(Path(args.targets_of).read_text())["rows"]))
+        return 0
     global SRC
     if args.src:
         SRC = Path(args.src).resolve()
@@ -781,6 +795,8 @@ def main(argv: list[str] | None = None) -> int:
     if any("state" in r for r in rows):
         print()
         print(cold_table(rows))
+    print()
+    print(targets_table(rows))
     meta = {
         "python": sys.version.split()[0],
         "numpy": np.__version__,

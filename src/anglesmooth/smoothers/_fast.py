@@ -17,7 +17,8 @@ Why a compiled kernel
 Modules
     This module decides whether the compiled kernels run (:func:`active`),
     loads them (:mod:`._fastkernels`, through the disk cache of
-    :mod:`._jitcache`), counts their compile time and runs a call on
+    :mod:`._jitcache`; in the CLI's process without numba's BLAS probe,
+    :mod:`._leanload`), counts their compile time and runs a call on
     threads (:func:`_run`); :mod:`._fastcalls` holds the Python entry points
     the smoothers call (one per numpy kernel of :mod:`._local`, plus
     :func:`._fastcalls.warm_up`), which import this module, never the
@@ -221,13 +222,14 @@ def would_help(topo) -> bool:
 def _k():
     global _kernels
     if _kernels is None:
-        from . import _jitcache
+        from . import _jitcache, _leanload
 
         _numba_available()  # numba's first import, as configured there
 
         _jitcache.install()  # before the kernels are decorated: numba picks their cache location then
         from . import _fastkernels
 
+        _leanload.before_first_kernel()
         _kernels = _fastkernels
     return _kernels
 
