@@ -176,8 +176,18 @@ def reference_keep(points, topo, keep_quad=30.0, keep_tri=40.0, keep_rect=15.0, 
     return np.array(out, dtype=bool)
 
 
+def reference_input_min(points, topo):
+    """The smallest local quality (degrees) of any free node of ``points``: its incident cells' smallest
+    corner quality (triangles: the angle; quads: min(angle, 180 - angle)); None if a cell of a free
+    node is invalid (the default's ``keep_min`` rule is then off)."""
+    p = [list(map(float, x)) for x in points]
+    inc = incident(cells_of(topo), len(p))
+    worst = min(local_min_angle(p, inc[int(i)]) for i in topo.free_nodes)
+    return None if worst < 0 else math.degrees(worst)
+
+
 def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20.0, accept_above_quad=20.0,
-                   keep=None, keep_largest=True):
+                   keep=None, keep_largest=True, input_min=None):
     """One pass of ``method`` in the topology's colour order, node by node.
 
     For ``angle`` with ``guard`` this is the robust candidate selection (the
@@ -192,6 +202,9 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
     only where it is also no worse than staying and opens none of the corners the node moves beyond the
     largest of them when staying (or a right angle; ``keep_largest=False``: without this second test), and
     otherwise always the best of five.
+    ``input_min`` (degrees, :func:`reference_input_min` of the input; None: no such rule): the acceptance
+    threshold, for the angle position and for the nearest good candidate alike, is the larger of it and
+    ``accept_above[_quad]`` (the default's ``keep_min``).
     """
     p = [list(map(float, x)) for x in points]
     cells = cells_of(topo)
@@ -231,7 +244,8 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
                 continue
             q_ang = local_min_angle(_with(p, i, ang), inc[i])
             has_quad = any(len(c) == 4 for c in inc[i])
-            if q_ang >= math.radians(accept_above_quad if has_quad else accept_above) and (
+            good = max(accept_above_quad if has_quad else accept_above, -math.inf if input_min is None else input_min)
+            if q_ang >= math.radians(good) and (
                     not kp or (q_ang >= local_min_angle(p, inc[i])
                                and (not keep_largest or largest_moving_angle(_with(p, i, ang), i, inc[i])
                                     <= max(largest_moving_angle(p, i, inc[i]), math.pi / 2)))):
@@ -241,7 +255,7 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
             scores = [local_min_angle(_with(p, i, x), inc[i]) for x in cands]
             p[i] = cands[int(np.argmax(scores))]
             # the candidate nearest the angle position among those good enough (first on ties)
-            near = [k for k in range(1, 5) if scores[k] >= math.radians(accept_above_quad if has_quad else accept_above)]
+            near = [k for k in range(1, 5) if scores[k] >= math.radians(good)]
             if near and not kp:
                 dist = [(cands[k][0] - ang[0]) ** 2 + (cands[k][1] - ang[1]) ** 2 for k in near]
                 p[i] = cands[near[int(np.argmin(dist))]]

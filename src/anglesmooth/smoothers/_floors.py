@@ -5,7 +5,8 @@ angles while its height goes to zero), so every guarded method gets, from the dr
 row the smallest area and edge lengths the row's cell may reach: a fixed fraction of its *input*
 values, for the cells that are anisotropic in the input.  The same pass over the input also marks
 the nodes near triangles whose cells are all well shaped (see :attr:`Floors.keep`), and takes the input's
-median cell area (stage 5's size scale, :attr:`Floors.area_median`).  The score kernels of
+median cell area (stage 5's size scale, :attr:`Floors.area_median`) and its smallest local score over
+the cells of free nodes (the default ``angle``'s ``keep_min``, :attr:`Floors.score_min`).  The score kernels of
 :mod:`._local` and :mod:`._fastkernels` apply the floors.
 """
 
@@ -47,6 +48,10 @@ class Floors(NamedTuple):
     packed: np.ndarray
     keep: np.ndarray  # (n_free,) bool: a node near triangles, every input cell well shaped (see below)
     area_median: float = 0.0  # the input's median cell area (stage 5's size scale, :mod:`._patch`); 0: none
+    #: the input's smallest local score (``-cos`` of the smallest corner, quad corners ``min(angle, 180 -
+    #: angle)``) over the cells of a free node: the default ``angle`` accepts no position below it in
+    #: stages 1-2 (see :func:`.angle.step`, ``keep_min``); -inf: an invalid input cell (no such rule)
+    score_min: float = -np.inf
 
     @property
     def active(self) -> bool:
@@ -72,28 +77,33 @@ def _edge_lengths(px, py):
 
 
 def _cell_shape(z: np.ndarray, cells: np.ndarray):
-    """(edge lengths (k, n), well shaped (n,), near-rectangular (n,) or None, twice the signed area (n,))
-    of (n, k) ccw cells.
+    """(edge lengths (k, n), well shaped (n,), near-rectangular (n,) or None, twice the signed area (n,),
+    score (n,)) of (n, k) ccw cells.
 
     Edge m runs from corner m to m + 1; well shaped: every corner within ``KEEP_QUAD`` of a right
-    angle (quads) or at least ``KEEP_TRI`` (triangles); near-rectangular: within ``KEEP_RECT``.
+    angle (quads) or at least ``KEEP_TRI`` (triangles); near-rectangular: within ``KEEP_RECT``;
+    score: the local score of the smoothers' kernels, ``-cos`` of the smallest corner (triangles)
+    or ``-max |cos|`` (quads), -inf for a cell with an invalid (reflex, degenerate) corner.
     """
     k = cells.shape[1]
     px, py = _gather(z, cells)
     ex, ey, e = _edge_lengths(px, py)
     good = np.ones(cells.shape[0], bool)
     rect = np.ones(cells.shape[0], bool) if k == 4 else None
+    score = np.full(cells.shape[0], np.inf)
     with np.errstate(divide="ignore", invalid="ignore"):
         for m in range(k):
             j = m - 1  # corner m lies between edge m and the reversed edge m - 1
             cos = -(ex[m] * ex[j] + ey[m] * ey[j]) / (e[m] * e[j])
             ok = ex[j] * ey[m] - ey[j] * ex[m] > 0
+            # (a NaN cosine fails ``< inf``: -inf)
+            score = np.minimum(score, np.where(ok & (np.abs(cos) < np.inf), -np.abs(cos) if k == 4 else -cos, -np.inf))
             if k == 4:
                 good &= (np.abs(cos) <= np.cos(np.radians(90.0 - KEEP_QUAD))) & ok
                 rect &= (np.abs(cos) <= np.cos(np.radians(90.0 - KEEP_RECT))) & ok
             else:
                 good &= (cos <= np.cos(np.radians(KEEP_TRI))) & ok
-    return e, good, rect, _area2(px, py)
+    return e, good, rect, _area2(px, py), score
 
 
 def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, aniso: float = ANISO) -> Floors:
@@ -129,13 +139,17 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
     keep_q = np.zeros(n, bool)  # per point: a corner of a near-rectangular stretched quad
     an_node = np.zeros(n, bool)  # per point: a corner of an anisotropic cell
     not_rect = np.zeros(n, bool)  # per point: a quad of it is not near-rectangular
+    s_min = np.inf  # the smallest score of a cell with a free node
     # in chunks of cells / rows: element-wise, so the same values, with temporaries of a bounded size
     for all_cells in (topo.tri, topo.quad):
         k = all_cells.shape[1]
         for c0 in range(0, all_cells.shape[0], _CHUNK):
             cells = all_cells[c0 : c0 + _CHUNK]
-            e, good, rect, a2 = _cell_shape(z, cells)
+            e, good, rect, a2, score = _cell_shape(z, cells)
             areas.append(0.5 * np.abs(a2))
+            moves = ~topo.fixed[cells].all(axis=1)
+            if moves.any():
+                s_min = min(s_min, float(score[moves].min()))
             emax, emin = np.max(e, axis=0), np.min(e, axis=0)
             an = emax >= aniso * emin
             an_node[cells[an].ravel()] = True
@@ -166,7 +180,7 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
     if not an_node.any():
         packed = np.zeros((0, 0))
     med = float(np.median(np.concatenate(areas))) if areas else 0.0
-    return Floors(*out, packed, keep, med)
+    return Floors(*out, packed, keep, med, s_min if s_min < np.inf else -np.inf)
 
 
 def _area2(px, py) -> np.ndarray:

@@ -44,8 +44,11 @@ The robust default (``guard=True``)
        position A when the local quality there (the smallest angle of its
        incident cells; quad corners count ``min(angle, 180 - angle)``) is at
        least ``accept_above`` (20 deg) -- whether or not staying would score
-       higher.  This is most nodes of a decent mesh, and it is what keeps the
-       paper's size uniformity.  Nodes near triangles (a triangle's, or a
+       higher -- and at least the input mesh's smallest local score
+       (``keep_min``; the driver's :attr:`._floors.Floors.score_min`): "good
+       enough" never means worse than the worst the user gave.  This is most
+       nodes of a decent mesh, and it is what keeps the paper's size
+       uniformity.  Nodes near triangles (a triangle's, or a
        corner of a quad that has one) whose input cells were all well shaped
        (quad corners within 30 deg of a right angle, triangle corners >= 40
        deg, or a stretched well-shaped quad), and nodes among quads only
@@ -83,7 +86,12 @@ The robust default (``guard=True``)
        60 (``strict_quads``, :func:`._local.strict_quad`), not like one of
        ``90 - d``: otherwise it shears the good outer quads of a boundary
        layer (92.7 deg) up to 116-125 deg to lift the triangles beside them
-       from 40 to 44 deg.  A node of quads only that scores higher where it
+       from 40 to 44 deg.  That search maximizes another score than the
+       local one, so it can lower a node's local score (its triangles
+       traded for its quads): where it would end below the input's smallest
+       local score, the node keeps its stage 1-2 choice (``keep_min``; gmsh
+       boundary layers around a hole went 39.20 -> 38.3-39.1 deg without,
+       see ``docs/default_method.md``).  A node of quads only that scores higher where it
        is (C) than at its stage 1-2 choice and is at least ``resume_above``
        (45 deg) good there -- it was optimized in the previous pass and
        pulled back toward A -- resumes the search from C instead, with
@@ -111,12 +119,23 @@ The robust default (``guard=True``)
     non-convex, and an already invalid neighbourhood never gets more invalid
     cells (every candidate is checked exactly, and C is one of them); with
     the driver's input floors no anisotropic cell shrinks below a quarter of
-    its input area or edge length.  *Not* guaranteed any more: that the
-    local minimum angle of a node never decreases, hence that the mesh's
-    minimum angle never decreases from one pass to the next (stages 1 and 3
-    may lower it on the way out of a trap; the nodes of well-shaped input
-    cells keep the monotone rule).  Figures: the quality matrix in README
-    and ``benchmarks/quality_matrix.py``.
+    its input area or edge length.  With the driver's floors
+    (``keep_min``), the mesh's smallest local score over its free nodes
+    (smallest angle; quad corners ``min(angle, 180 - angle)``) never falls
+    below the input's: stages 1-2 accept nothing below it (C, one of the
+    five, is never below it), stage 4 starts from that choice and either
+    climbs its own local score or, strict, is held at the input's, and
+    stage 5 never lowers a patch's minimum.  Two exceptions: stage 3 (every
+    move of a node invalid, a flattened cell; it fired only on inputs with
+    invalid or nearly flat cells in the quality matrix) and stage 5's size
+    term, which may trade a corner for a small cell's area in a patch of
+    cells below ``patch_below`` (30 deg), so only on inputs worse than
+    that.  *Not* guaranteed: that the local minimum angle of a node never
+    decreases, nor the mesh's minimum from one pass to the next (stage 1
+    takes positions above the input's minimum but below the node's current
+    score; the nodes of well-shaped input cells keep the monotone rule).
+    Figures: the quality matrix in README and
+    ``benchmarks/quality_matrix.py``.
 
 >>> import numpy as np
 >>> from anglesmooth.generate import structured_triangles
@@ -169,6 +188,16 @@ def _quads_only(topo: Topology, blk) -> np.ndarray:
     return hit
 
 
+def _mixed(topo: Topology, blk) -> np.ndarray:
+    """Per block node: it has both a triangle and a quad (cached per block, topology only)."""
+    key = ("angle-mixed", blk.nodes.start, blk.nodes.stop)
+    hit = topo._cache.get(key)
+    if hit is None:
+        hasq = np.bincount(topo.quad_loc[blk.quads] - blk.nodes.start, minlength=blk.size) > 0
+        hit = topo._cache[key] = hasq & ~_quads_only(topo, blk)
+    return hit
+
+
 def step(
     points: np.ndarray,
     topo: Topology,
@@ -193,6 +222,7 @@ def step(
     patch_cells: int = 8,
     patch_below: float = 30.0,
     patch_iterations: int = 15,
+    keep_min: bool = True,
     floors: Floors | None = None,
     area_range: tuple[float, float] | None = None,
 ) -> StepResult:
@@ -241,6 +271,14 @@ def step(
         ``patch_iterations`` ascent steps per patch and pass (15: the 30 of the first version cost
         1.7x the time for no better minimum angle: paper-style mixed 25.27 / triangles 26.79 / graded
         20.61 deg with 30, 25.34 / 27.37 / 20.69 with 15; 10 steps: mixed 23.97, seed 0 16.2).
+    keep_min : bool
+        No move below the input mesh's smallest local score (``floors.score_min``, the input's worst
+        local score over its free nodes): stages 1-2 accept at ``max(accept_above[_quad], that)``, so
+        that "good enough" never means worse than the worst cell the user gave, and a node whose
+        strict stage-4 search (``strict_quads``) ends below it keeps its stage 1-2 choice (see the
+        module docstring).  Off without ``floors`` (a library call that passes none: no input to
+        compare with; the driver always passes them) and where an input cell of a free node is
+        invalid (``score_min`` -inf).
     floors : :class:`._floors.Floors` or None
         Input floors of the guard (see :func:`._floors.input_floors`; the
         driver passes them).
@@ -276,11 +314,14 @@ def step(
                 limits = (float(areas.min()), float(areas.max()))
 
     any_keep = floors is not None and bool(floors.keep.any())  # once per pass, not per colour class
+    s_in = floors.score_min if keep_min and floors is not None else -np.inf  # the input's worst local score
 
     def choose(pts, blk, cur, geom):
         """Stages 1 and 2: (positions, their local scores, number of invalid angle positions, None or the
         nodes whose score is ``inf`` instead: certainly not below the optimization threshold)."""
         good = _per_node(topo, blk, accept_above, accept_above_quad)
+        if good.size and s_in > good.min():  # never accept below the input's worst (a fresh array: cached)
+            good = np.maximum(good, s_in)
         keep = None
         if floors is not None:
             keep = floors.keep[blk.nodes]
@@ -363,10 +404,12 @@ def step(
             strict = None
             if strict_quads and any_keep:
                 strict = floors.keep[blk.nodes][worst]
+            choice = new[worst] if strict is not None and s_in > -np.inf else None  # (a copy) stages 1-2's
             if fast:  # the same search, one compiled loop (scale, resume test, compass) per node
                 new[worst], _ = _fastcalls.angle_optimize(
                     pts, topo, blk, worst, new[worst], best[worst], opt_iterations, 0.25, area_band, _COMPASS, limits,
                     strict, floors, resume_iterations, resume_radius, -np.cos(np.radians(resume_above)))
+                _hold_strict(geom, blk, worst, strict, choice, new)
                 return new, refused
             sub = geom.restrict(worst)
             scale = local_scale(pts, topo, blk, subset=worst)
@@ -385,7 +428,19 @@ def step(
                         its, rad = np.full(worst.size, opt_iterations), np.full(worst.size, 0.25)
                         its[b], rad[b] = resume_iterations, resume_radius
             new[worst], _ = optimize(sub, start, scale, its, rad, area_band, limits, strict, s_start)
+            _hold_strict(geom, blk, worst, strict, choice, new)
         return new, refused
+
+    def _hold_strict(geom, blk, worst, strict, choice, new):
+        """``keep_min`` in stage 4: the strict search maximizes another score than the local one (quad
+        corners on the triangles' scale), so it may take a node's local score below the input's worst
+        (its triangles traded for its quads); there the node keeps its stage 1-2 choice."""
+        if choice is None:
+            return
+        z = worst[strict & _mixed(topo, blk)[worst]]  # (strict scores differ at nodes with both kinds only)
+        if z.size:
+            low = geom.restrict(z).score(new[z]) < s_in
+            new[z[low]] = choice[np.searchsorted(worst, z[low])]
 
     # the literal rule and the compiled default read no current positions (their kernels do)
     res = run_blocks(points, topo, order, update, current=guard and not fast)
