@@ -78,19 +78,27 @@ def optimize(
 
     def stepper(g, x, strict, lo0, hi0):
         if prune and g.n >= PRUNE_MIN_NODES:
-            return _Pruned(g, x, strict, lo0, hi0).step
+            return _Pruned(g, x, strict, lo0, hi0).step  # (called inside the errstate below)
         return lambda x, s0, r: _compass_step(g, x, s0, r, area_band, lo0, hi0, strict)
 
     if np.ndim(iterations) == 0:
-        step = stepper(geom, x, strict, lo0, hi0) if iterations > 0 else None
-        for _ in range(iterations):
-            x, s0, r = step(x, s0, r)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = stepper(geom, x, strict, lo0, hi0) if iterations > 0 else None
+            for _ in range(iterations):
+                x, s0, r = step(x, s0, r)
         return x, s0
     # one number of steps per node: all nodes while every one still steps, then only the ones that do
     # (the geometry restricted once per change of that set; every node's numbers are its own)
     its = np.asarray(iterations)
     x, s0, r = np.array(x, dtype=np.float64), np.array(s0), np.array(r, dtype=np.float64)  # written in place below
     act, g, step = None, geom, None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        _varying(its, x, s0, r, act, g, step, stepper, area_band, lo0, hi0, strict)
+    return x, s0
+
+
+def _varying(its, x, s0, r, act, g, step, stepper, area_band, lo0, hi0, strict):
+    """:func:`optimize`'s loop with one number of steps per node (``x``, ``s0``, ``r`` written in place)."""
     for k in range(int(its.max(initial=0))):
         on = its if act is None else its[act]
         if not (on > k).all():
@@ -103,10 +111,9 @@ def optimize(
         if step is None:
             step = stepper(g, x if act is None else x[act], strict, lo0, hi0)
         if act is None:
-            x, s0, r = step(x, s0, r)
+            x[...], s0[...], r[...] = step(x, s0, r)
         else:
             x[act], s0[act], r[act] = step(x[act], s0[act], r[act])
-    return x, s0
 
 
 def _compass_step(geom, x, s0, r, area_band, lo0, hi0, strict):
@@ -156,8 +163,7 @@ class _Pruned:
             cols, fl = geom.columns(quads)
             packed = _packed(geom, quads, cols, fl)
             self.parts.append((quads, first, cnt, packed, len(cols)))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                v = _raw(quads, x[:, 0].take(rel), x[:, 1].take(rel), cols)
+            v = _raw(quads, x[:, 0].take(rel), x[:, 1].take(rel), cols)
             if quads and self.q_strict is not None:
                 v = np.where(self.q_strict.take(rel), strict_quad(v), v)
             nodes, crit = _lowest(v, rel, first, cnt)  # (PRUNE_ROWS, nodes)
@@ -166,40 +172,42 @@ class _Pruned:
             self.a.append((quads, None if nodes.shape[0] == self.n else nodes, tuple(g[: len(cols)]), sr))
 
     def step(self, x, s0, r):
-        """One step: (positions, scores, radii), as :func:`_compass_step`."""
+        """One step: (positions, scores, radii), as :func:`_compass_step` (numpy's errors: the caller's)."""
         n = self.n
-        cx = x[:, 0][None] + _COMPASS[:, 0][:, None] * r[None]  # the candidates (8, n): as cands[..., 0]
-        cy = x[:, 1][None] + _COMPASS[:, 1][:, None] * r[None]
+        x0, y0 = x[:, 0], x[:, 1]
+        cx = x0 + _DX * r  # the candidates (8, n): as cands[..., 0]
+        cy = y0 + _DY * r
         ub = None
-        with np.errstate(divide="ignore", invalid="ignore"):
-            for quads, nodes, cols, sr in self.a:  # the bounds from the critical rows
-                v = _raw(quads, cx[None], cy[None], cols) if nodes is None else \
-                    _raw(quads, cx[:, nodes][None], cy[:, nodes][None], cols)  # (rows, 8, nodes)
-                if sr is not None:
-                    v = np.where(sr, strict_quad(v), v)
-                b = v[0]
-                for j in range(1, PRUNE_ROWS):
-                    np.minimum(b, v[j], out=b)
-                if nodes is None:
-                    ub = b if ub is None else np.minimum(ub, b, out=ub)
-                else:
-                    if ub is None:
-                        ub = np.full(cx.shape, np.inf)
-                    ub[:, nodes] = np.minimum(ub[:, nodes], b)
-            # no bound (NaN) where s0 is invalid: there every candidate is scored
-            live = ub <= np.where(s0 > INVALID, s0, np.nan)
-            np.logical_not(live, out=live)
-            p = np.flatnonzero(live)
-            sc = np.full(cx.shape, -np.inf)
-            if p.shape[0]:
-                sc.ravel()[p] = self._scores(cx.ravel().take(p), cy.ravel().take(p), p % n)
+        for quads, nodes, cols, sr in self.a:  # the bounds from the critical rows
+            v = _raw(quads, cx, cy, cols) if nodes is None else _raw(quads, cx[:, nodes], cy[:, nodes], cols)
+            if sr is not None:  # (rows, 8, nodes)
+                v = np.where(sr, strict_quad(v), v)
+            b = v[0]
+            for j in range(1, PRUNE_ROWS):
+                np.minimum(b, v[j], out=b)
+            if nodes is None:
+                ub = b if ub is None else np.minimum(ub, b, out=ub)
+            else:
+                if ub is None:
+                    ub = np.empty(cx.shape)
+                    ub.fill(np.inf)
+                ub[:, nodes] = np.minimum(ub[:, nodes], b)
+        # no bound (NaN) where s0 is invalid: there every candidate is scored
+        live = ub <= np.where(s0 > INVALID, s0, np.nan)
+        p = np.logical_not(live, out=live).ravel().nonzero()[0]
+        sc = np.empty(cx.shape)
+        sc.fill(-np.inf)
+        if p.shape[0]:
+            sc.ravel()[p] = self._scores(cx.ravel().take(p), cy.ravel().take(p), p % n)
         # the first best candidate, moved to where it beats s0 (_move's numbers)
-        f = sc.argmax(axis=0) * n + np.arange(n)
+        f = sc.argmax(axis=0)
+        f *= n
+        f += _arange(n)
         sk = sc.ravel().take(f)
         better = sk > s0
         out = np.empty_like(x)
-        out[:, 0] = np.where(better, cx.ravel().take(f), x[:, 0])
-        out[:, 1] = np.where(better, cy.ravel().take(f), x[:, 1])
+        out[:, 0] = np.where(better, cx.ravel().take(f), x0)
+        out[:, 1] = np.where(better, cy.ravel().take(f), y0)
         return out, np.where(better, sk, s0), np.where(better, r, 0.5 * r)
 
     def _scores(self, px, py, node):
@@ -208,7 +216,7 @@ class _Pruned:
         best = bad = out_band = None
         for quads, first, cnt, packed, ncol in self.parts:
             c = cnt.take(node)
-            has = None if len(self.parts) == 1 else np.flatnonzero(c)  # one kind: every node has rows
+            has = None if len(self.parts) == 1 else c.nonzero()[0]  # one kind: every node has rows
             if has is not None:
                 if not has.shape[0]:
                     continue
@@ -217,13 +225,12 @@ class _Pruned:
             starts = ends - c
             nd = node if has is None else node.take(has)
             rows = (first.take(nd) - starts).repeat(c)
-            rows += np.arange(rows.shape[0])
+            rows += _arange(rows.shape[0])
             cols = packed.take(rows, axis=0).T.copy()  # (columns, rows), each column contiguous
             pxr = (px if has is None else px.take(has)).repeat(c)
             pyr = (py if has is None else py.take(has)).repeat(c)
             fl = tuple(cols[ncol:]) if cols.shape[0] > ncol else None
-            with np.errstate(divide="ignore", invalid="ignore"):
-                vals, ok, ar = (_quad_vals if quads else _tri_vals)(pxr, pyr, tuple(cols[:ncol]), fl, True)
+            vals, ok, ar = (_quad_vals if quads else _tri_vals)(pxr, pyr, tuple(cols[:ncol]), fl, True)
             if quads and self.q_strict is not None:
                 vals = np.where(self.q_strict.take(nd).repeat(c), strict_quad(vals), vals)
             low = np.minimum.reduceat(vals, starts)
@@ -231,18 +238,19 @@ class _Pruned:
                 best = low if best is None else np.minimum(best, low, out=best)
             else:
                 if best is None:
-                    best = np.full(m, np.inf)
+                    best = np.empty(m)
+                    best.fill(np.inf)
                 best[has] = np.minimum(best.take(has), low)
             if self.lo0 is not None:
                 # every row within [lo0, hi0] of its node: the pair's smallest and largest area within
                 # (a NaN area or bound: outside, as in the rows' own comparisons)
                 inside = np.minimum.reduceat(ar, starts) >= self.lo0.take(nd)
                 inside &= np.maximum.reduceat(ar, starts) <= self.hi0.take(nd)
-                if not inside.all():
+                if np.count_nonzero(inside) != m:
                     if out_band is None:
                         out_band = np.zeros(m, bool)
                     out_band[np.flatnonzero(~inside) if has is None else has[~inside]] = True
-            if not ok.all():
+            if np.count_nonzero(ok) != ok.shape[0]:
                 # an inverted cell (area <= 0) weighs more than any number of other invalid ones
                 pair = (np.arange(m) if has is None else has).repeat(c)
                 weight = np.where(ar > 0, 1.0, INVERTED_WEIGHT)[~ok]
@@ -300,3 +308,10 @@ def _raw(quads, px, py, cols):
 
 
 _COMPASS = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)], axis=1)
+_DX, _DY = _COMPASS[:, 0][:, None].copy(), _COMPASS[:, 1][:, None].copy()  # (8, 1) each
+_ARANGE = np.arange(1 << 16)
+
+
+def _arange(n: int) -> np.ndarray:
+    """``np.arange(n)`` (a view of a kept one, up to 65536)."""
+    return _ARANGE[:n] if n <= _ARANGE.shape[0] else np.arange(n)
