@@ -76,6 +76,14 @@ def test_pruned_search_equals_the_full_one(name, monkeypatch):
                 np.testing.assert_array_equal(a[0], b[0])
                 np.testing.assert_array_equal(a[1], b[1])
                 searched += 8 * blk.size * int(np.max(it))
+                # a few nodes (below PRUNE_MIN_NODES: every candidate scored, by _Pruned's own code)
+                few = np.arange(0, blk.size, 5)[: _compass.PRUNE_MIN_NODES - 1]
+                kw["strict"] = None if st is None else st[few]
+                itf = it if np.ndim(it) == 0 else it[few]
+                a = optimize(geom.restrict(few), cur[few], scale[few], itf, **kw)
+                b = optimize(geom.restrict(few), cur[few], scale[few], itf, prune=False, **kw)
+                np.testing.assert_array_equal(a[0], b[0])
+                np.testing.assert_array_equal(a[1], b[1])
     assert invalid_starts > 0  # the jitter inverted cells: invalid scores were searched too
     # the pruning prunes: far fewer pairs scored in full than searched
     assert 0 < seen["pairs"] < 0.6 * searched

@@ -77,11 +77,15 @@ def optimize(
     r = radius * scale
 
     def stepper(g, x, strict, lo0, hi0):
-        if prune and g.n >= PRUNE_MIN_NODES:
-            return _Pruned(g, x, strict, lo0, hi0).step  # (called inside the errstate below)
+        if prune:  # (called inside the errstate below)
+            return _Pruned(g, x, strict, lo0, hi0, bound=g.n >= PRUNE_MIN_NODES).step
         return lambda x, s0, r: _compass_step(g, x, s0, r, area_band, lo0, hi0, strict)
 
     if np.ndim(iterations) == 0:
+        if not prune:  # (BlockGeometry.score sets numpy's errors itself)
+            for _ in range(iterations):
+                x, s0, r = _compass_step(geom, x, s0, r, area_band, lo0, hi0, strict)
+            return x, s0
         with np.errstate(divide="ignore", invalid="ignore"):
             step = stepper(geom, x, strict, lo0, hi0) if iterations > 0 else None
             for _ in range(iterations):
@@ -149,7 +153,7 @@ class _Pruned:
     bit; numpy methods rather than functions, and few calls: most blocks are small).
     """
 
-    def __init__(self, geom, x, strict, lo0, hi0):
+    def __init__(self, geom, x, strict, lo0, hi0, bound=True):
         self.lo0, self.hi0, self.n = lo0, hi0, geom.n
         self.parts = []  # per kind of row: (quads, first row, row count, packed columns, number of columns)
         self.a = []  # per kind: (quads, its nodes or None: all, critical rows' columns, strict or None)
@@ -163,6 +167,8 @@ class _Pruned:
             cols, fl = geom.columns(quads)
             packed = _packed(geom, quads, cols, fl)
             self.parts.append((quads, first, cnt, packed, len(cols)))
+            if not bound:  # no bounds: every candidate scored (with this class's fewer numpy calls)
+                continue
             v = _raw(quads, x[:, 0].take(rel), x[:, 1].take(rel), cols)
             if quads and self.q_strict is not None:
                 v = np.where(self.q_strict.take(rel), strict_quad(v), v)
@@ -192,9 +198,12 @@ class _Pruned:
                     ub = np.empty(cx.shape)
                     ub.fill(np.inf)
                 ub[:, nodes] = np.minimum(ub[:, nodes], b)
-        # no bound (NaN) where s0 is invalid: there every candidate is scored
-        live = ub <= np.where(s0 > INVALID, s0, np.nan)
-        p = np.logical_not(live, out=live).ravel().nonzero()[0]
+        if ub is None:
+            p = _arange(8 * n)
+        else:
+            # no bound (NaN) where s0 is invalid: there every candidate is scored
+            live = ub <= np.where(s0 > INVALID, s0, np.nan)
+            p = np.logical_not(live, out=live).ravel().nonzero()[0]
         sc = np.empty(cx.shape)
         sc.fill(-np.inf)
         if p.shape[0]:

@@ -261,8 +261,10 @@ class BlockGeometry:
 
     def _quad_chunk(self, px, py, r0, r1, want_area=False):
         """(-max |cos| of the four corners, valid, area or None) for quad rows r0:r1 (:func:`_quad_vals`)."""
-        cols = tuple(getattr(self, name)[r0:r1] for name in self._QUAD)
-        fl = tuple(getattr(self, name)[r0:r1] for name in self._QUAD_FLOORS) if self.floors else None
+        cols = (self.q_x1[r0:r1], self.q_y1[r0:r1], self.q_x3[r0:r1], self.q_y3[r0:r1], self.q_ux[r0:r1],
+                self.q_uy[r0:r1], self.q_vx[r0:r1], self.q_vy[r0:r1], self.q_l12[r0:r1], self.q_l23[r0:r1],
+                self.q_ok2[r0:r1], self.q_cos2[r0:r1])  # _QUAD
+        fl = (self.q_fa[r0:r1], self.q_f1[r0:r1], self.q_f3[r0:r1]) if self.floors else None
         return _quad_vals(px, py, cols, fl, want_area)
 
     def columns(self, quads: bool, rows: np.ndarray | None = None) -> tuple:
