@@ -33,9 +33,8 @@ from ._floors import Floors
 from ._compass import _COMPASS, optimize  # noqa: F401 (re-exported: moved to _compass)
 from ._targets import angle_target, laplacian_target, local_scale  # noqa: F401 (re-exported: moved to _targets)
 from ._rows import _C30, _CHUNK, _SMALL, _SMALL_SUBSET, _layout, _rowreduce, _Rows, strict_quad  # noqa: F401
+from ._rows import INVALID, INVERTED_WEIGHT, _quad_vals, _tri_vals
 
-INVALID = -3.0
-INVERTED_WEIGHT = 1000.0
 
 
 class BlockGeometry:
@@ -256,68 +255,27 @@ class BlockGeometry:
         return tuple(out)
 
     def _tri_chunk(self, px, py, r0, r1, want_area=False):
-        """(-max cos of the three corners, valid, area or None) for triangle rows r0:r1.
-
-        With f2 = p0 - p2 = -(p2 - p0) (exact in floating point), the negated
-        cosines come out without negations: -cos0 = e1.f2 / (l1 l2),
-        -cos1 = e12.e1 / (l12 l1), -cos2 = f2.e12 / (l2 l12), and the corner
-        cross product e1 x e2 = -(e1 x f2) -- bit for bit the same values.
-        """
-        ux, uy, l12, x1, y1, x2, y2 = self._cols(px, r0, r1, "t_ux", "t_uy", "t_l12", "t_x1", "t_y1", "t_x2", "t_y2")
-        ex1 = x1 - px
-        ey1 = y1 - py
-        fx2 = px - x2
-        fy2 = py - y2
-        l1 = np.sqrt(ex1 * ex1 + ey1 * ey1)
-        l2 = np.sqrt(fx2 * fx2 + fy2 * fy2)
-        cr = ex1 * fy2 - ey1 * fx2
-        # the area, _tri_area's 0.5 * (e1 x e2) (up to the sign of a zero, which no comparison sees):
-        # fx2 = -ex2 and fy2 = -ey2 exactly, so cr = -(e1 x e2) exactly (rounding is symmetric)
-        ar = -0.5 * cr if want_area else None
-        ok = cr < 0
-        if self.floors:  # -cr is twice the area
-            fa, f1, f2 = self._cols(px, r0, r1, "t_fa", "t_f1", "t_f2")
-            ok &= (-cr >= fa) & (l1 >= f1) & (l2 >= f2)
-        vals = (ex1 * fx2 + ey1 * fy2) / (l1 * l2)
-        np.minimum(vals, (ux * ex1 + uy * ey1) / (l12 * l1), out=vals)
-        np.minimum(vals, (fx2 * ux + fy2 * uy) / (l2 * l12), out=vals)
-        ok &= np.isfinite(vals)
-        if not ok.all():
-            vals[~ok] = np.inf
-        return vals, ok, ar
+        """(-max cos of the three corners, valid, area or None) for triangle rows r0:r1 (:func:`_tri_vals`)."""
+        cols = self._cols(px, r0, r1, *self._TRI)
+        return _tri_vals(px, py, cols, self._cols(px, r0, r1, *self._TRI_FLOORS) if self.floors else None, want_area)
 
     def _quad_chunk(self, px, py, r0, r1, want_area=False):
-        """(-max |cos| of the four corners, valid, area or None) for quad rows r0:r1."""
-        ux, uy, l12 = self.q_ux[r0:r1], self.q_uy[r0:r1], self.q_l12[r0:r1]
-        vx, vy, l23 = self.q_vx[r0:r1], self.q_vy[r0:r1], self.q_l23[r0:r1]
-        ex1 = self.q_x1[r0:r1] - px
-        ey1 = self.q_y1[r0:r1] - py
-        ex3 = self.q_x3[r0:r1] - px
-        ey3 = self.q_y3[r0:r1] - py
-        l1 = np.sqrt(ex1 * ex1 + ey1 * ey1)
-        l3 = np.sqrt(ex3 * ex3 + ey3 * ey3)
-        ok = ex1 * ey3 - ey1 * ex3 > 0
-        ok &= uy * ex1 - ux * ey1 > 0  # corner 1: e12 x (-e1)
-        ok &= ex3 * vy - ey3 * vx > 0  # corner 3: e3 x e23
-        ok &= self.q_ok2[r0:r1]
-        ar = None
-        if self.floors or want_area:
-            # twice the area: the same operations as _quad_area's
-            x1, y1 = self.q_x1[r0:r1], self.q_y1[r0:r1]
-            a2 = (x1 + ux - px) * (self.q_y3[r0:r1] - y1) - (y1 + uy - py) * (self.q_x3[r0:r1] - x1)
-            ar = 0.5 * a2 if want_area else None
-        if self.floors:
-            ok &= (a2 >= self.q_fa[r0:r1]) & (l1 >= self.q_f1[r0:r1]) & (l3 >= self.q_f3[r0:r1])
-        cm = np.abs((ex1 * ex3 + ey1 * ey3) / (l1 * l3))
-        np.maximum(cm, np.abs((ux * ex1 + uy * ey1) / (l12 * l1)), out=cm)
-        c3 = np.abs((ex3 * vx + ey3 * vy) / (l3 * l23))
-        np.maximum(c3, self.q_cos2[r0:r1], out=c3)
-        np.maximum(cm, c3, out=cm)
-        ok &= np.isfinite(cm)
-        np.negative(cm, out=cm)
-        if not ok.all():
-            cm[~ok] = np.inf
-        return cm, ok, ar
+        """(-max |cos| of the four corners, valid, area or None) for quad rows r0:r1 (:func:`_quad_vals`)."""
+        cols = (self.q_x1[r0:r1], self.q_y1[r0:r1], self.q_x3[r0:r1], self.q_y3[r0:r1], self.q_ux[r0:r1],
+                self.q_uy[r0:r1], self.q_vx[r0:r1], self.q_vy[r0:r1], self.q_l12[r0:r1], self.q_l23[r0:r1],
+                self.q_ok2[r0:r1], self.q_cos2[r0:r1])  # _QUAD
+        fl = (self.q_fa[r0:r1], self.q_f1[r0:r1], self.q_f3[r0:r1]) if self.floors else None
+        return _quad_vals(px, py, cols, fl, want_area)
+
+    def columns(self, quads: bool, rows: np.ndarray | None = None) -> tuple:
+        """(columns, floor columns or None) of the triangle (``quads`` False) or quad rows ``rows``
+        (all rows: None), the operands of :func:`_tri_vals` / :func:`_quad_vals`; ``rows`` may be 2-d."""
+        names, fl = (self._QUAD, self._QUAD_FLOORS) if quads else (self._TRI, self._TRI_FLOORS)
+        if rows is None:
+            get = lambda name: getattr(self, name)  # noqa: E731
+        else:
+            get = lambda name: np.take(getattr(self, name), rows)  # noqa: E731
+        return tuple(get(name) for name in names), (tuple(get(name) for name in fl) if self.floors else None)
 
     def largest(self, X: np.ndarray) -> np.ndarray:
         """``-cos`` of the largest corner each node's position ``X`` (n, 2) moves: every corner of its

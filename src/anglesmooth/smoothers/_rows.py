@@ -130,6 +130,94 @@ def _layout(topo: Topology, blk: Block, subset: np.ndarray | None):
     return n, t_rows, t_rel, t_cols, q_rows, q_rel, q_cols, t_ids, q_ids
 
 
+#: The score of an invalid position, less one per invalid incident cell (see :mod:`._local`)
+INVALID = -3.0
+#: What an inverted incident cell counts in that, against 1 for another invalid one
+INVERTED_WEIGHT = 1000.0
+
+
+def _tri_core(px, py, cols):
+    """The raw value (-max cos of the three corners, no validity) of triangle rows with p0 at (px, py)
+    and the fixed corners' ``cols`` (``BlockGeometry._TRI``), and its parts: (vals, ex1, ey1, fx2, fy2,
+    l1, l2).  Where a row is valid (:func:`_tri_vals`) its value is ``vals``, bit for bit.
+
+    With f2 = p0 - p2 = -(p2 - p0) (exact in floating point), the negated
+    cosines come out without negations: -cos0 = e1.f2 / (l1 l2),
+    -cos1 = e12.e1 / (l12 l1), -cos2 = f2.e12 / (l2 l12), and the corner
+    cross product e1 x e2 = -(e1 x f2) -- bit for bit the same values.
+    """
+    x1, y1, x2, y2, ux, uy, l12 = cols
+    ex1 = x1 - px
+    ey1 = y1 - py
+    fx2 = px - x2
+    fy2 = py - y2
+    l1 = np.sqrt(ex1 * ex1 + ey1 * ey1)
+    l2 = np.sqrt(fx2 * fx2 + fy2 * fy2)
+    vals = (ex1 * fx2 + ey1 * fy2) / (l1 * l2)
+    np.minimum(vals, (ux * ex1 + uy * ey1) / (l12 * l1), out=vals)
+    np.minimum(vals, (fx2 * ux + fy2 * uy) / (l2 * l12), out=vals)
+    return vals, ex1, ey1, fx2, fy2, l1, l2
+
+
+def _tri_vals(px, py, cols, fl, want_area=False):
+    """(-max cos of the three corners, valid, area or None) of triangle rows (:func:`_tri_core`), input
+    floors ``fl`` (``BlockGeometry._TRI_FLOORS``) or None; +inf where invalid."""
+    vals, ex1, ey1, fx2, fy2, l1, l2 = _tri_core(px, py, cols)
+    cr = ex1 * fy2 - ey1 * fx2
+    # the area, _tri_area's 0.5 * (e1 x e2) (up to the sign of a zero, which no comparison sees):
+    # fx2 = -ex2 and fy2 = -ey2 exactly, so cr = -(e1 x e2) exactly (rounding is symmetric)
+    ar = -0.5 * cr if want_area else None
+    ok = cr < 0
+    if fl is not None:  # -cr is twice the area
+        fa, f1, f2 = fl
+        ok &= (-cr >= fa) & (l1 >= f1) & (l2 >= f2)
+    ok &= np.isfinite(vals)
+    if np.count_nonzero(ok) != ok.size:  # (ok.all(), fewer instructions)
+        vals[~ok] = np.inf
+    return vals, ok, ar
+
+
+def _quad_core(px, py, cols):
+    """The raw max |cos| of the corners of quad rows (``cols``: ``BlockGeometry._QUAD``; its ``q_ok2``
+    is not read) with p0 at (px, py), and its parts: (cm, ex1, ey1, ex3, ey3, l1, l3).  Where a row is
+    valid (:func:`_quad_vals`) its value is ``-cm``, bit for bit."""
+    x1, y1, x3, y3, ux, uy, vx, vy, l12, l23, _, cos2 = cols
+    ex1 = x1 - px
+    ey1 = y1 - py
+    ex3 = x3 - px
+    ey3 = y3 - py
+    l1 = np.sqrt(ex1 * ex1 + ey1 * ey1)
+    l3 = np.sqrt(ex3 * ex3 + ey3 * ey3)
+    cm = np.abs((ex1 * ex3 + ey1 * ey3) / (l1 * l3))
+    np.maximum(cm, np.abs((ux * ex1 + uy * ey1) / (l12 * l1)), out=cm)
+    c3 = np.abs((ex3 * vx + ey3 * vy) / (l3 * l23))
+    np.maximum(c3, cos2, out=c3)
+    np.maximum(cm, c3, out=cm)
+    return cm, ex1, ey1, ex3, ey3, l1, l3
+
+
+def _quad_vals(px, py, cols, fl, want_area=False):
+    """(-max |cos| of the four corners, valid, area or None) of quad rows (:func:`_quad_core`; ``fl``:
+    ``BlockGeometry._QUAD_FLOORS`` or None); +inf where invalid."""
+    x1, y1, x3, y3, ux, uy, vx, vy = cols[:8]
+    cm, ex1, ey1, ex3, ey3, l1, l3 = _quad_core(px, py, cols)
+    ok = ex1 * ey3 - ey1 * ex3 > 0
+    ok &= uy * ex1 - ux * ey1 > 0  # corner 1: e12 x (-e1)
+    ok &= ex3 * vy - ey3 * vx > 0  # corner 3: e3 x e23
+    ok &= cols[10] if cols[10].dtype == bool else cols[10] > 0  # q_ok2 (a float 0 / 1 in a packed copy)
+    ar = None
+    if fl is not None or want_area:
+        # twice the area: the same operations as _quad_area's
+        a2 = (x1 + ux - px) * (y3 - y1) - (y1 + uy - py) * (x3 - x1)
+        ar = 0.5 * a2 if want_area else None
+    if fl is not None:
+        ok &= (a2 >= fl[0]) & (l1 >= fl[1]) & (l3 >= fl[2])
+    ok &= np.isfinite(cm)
+    np.negative(cm, out=cm)
+    if np.count_nonzero(ok) != ok.size:  # (ok.all(), fewer instructions)
+        cm[~ok] = np.inf
+    return cm, ok, ar
+
 _C30 = math.cos(math.pi / 6)
 
 
