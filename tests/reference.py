@@ -273,6 +273,20 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
     return np.array(p)
 
 
+
+def reference_strict(points, topo, keep, node, x, strict_above=25.0):
+    """Whether the default's stage 4 scores free node ``node`` (at its stage 1-2 choice ``x``, the other nodes
+    at ``points``) with ``strict_quad``: a node of well-shaped input cells (``keep``, per free node) with both
+    triangles and quads whose local quality at ``x`` (:func:`local_min_angle`) is at least ``strict_above`` deg."""
+    p = [list(map(float, q)) for q in points]
+    cells = cells_of(topo)
+    inc = incident(cells, len(p))[node]
+    f = int(np.flatnonzero(topo.free_nodes == node)[0])
+    if not (keep[f] and any(len(c) == 3 for c in inc) and any(len(c) == 4 for c in inc)):
+        return False
+    return local_min_angle(_with(p, node, list(map(float, x))), inc) >= math.radians(strict_above)
+
+
 # --------------------------------------------------------------------------- untangling (issue 12)
 
 

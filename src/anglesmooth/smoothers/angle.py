@@ -86,14 +86,17 @@ The robust default (``guard=True``)
        60 (``strict_quads``, :func:`._local.strict_quad`), not like one of
        ``90 - d``: otherwise it shears the good outer quads of a boundary
        layer (92.7 deg) up to 116-125 deg to lift the triangles beside them
-       from 40 to 44 deg.  That search maximizes another score than the
-       local one, so it can lower a node's local score (its triangles
-       traded for its quads): where it would end below the input's smallest
-       local score, the node keeps its stage 1-2 choice (``keep_min``; gmsh
-       boundary layers around a hole went 39.20 -> 38.3-39.1 deg without,
-       see ``docs/default_method.md``).  A node of quads only that scores higher where it
-       is (C) than at its stage 1-2 choice and is at least ``resume_above``
-       (45 deg) good there -- it was optimized in the previous pass and
+       from 40 to 44 deg; only where the node still scores at least
+       ``strict_above`` (25 deg) at its stage 1-2 choice, else the strict score
+       trades a triangle corner for quads that are no longer the input's good
+       ones.  That search maximizes another score than the local one, so it
+       can lower a node's local score (its triangles traded for its quads):
+       where it would end below the input's smallest local score, the node
+       keeps its stage 1-2 choice (``keep_min``; gmsh boundary layers around a
+       hole went 39.20 -> 38.3-39.1 deg without, see
+       ``docs/default_method.md``).  A node of quads only that scores higher
+       where it is (C) than at its stage 1-2 choice and is at least
+       ``resume_above`` (45 deg) good there -- it was optimized in the previous pass and
        pulled back toward A -- resumes the search from C instead, with
        ``resume_iterations`` (12) steps from ``resume_radius`` (0.0625)
        times the mean edge length: otherwise it restarts from A every pass
@@ -216,6 +219,7 @@ def step(
     accept_above_quad: float = 20.0,
     nearest: bool = True,
     strict_quads: bool = True,
+    strict_above: float | None = 25.0,
     resume_iterations: int = 12,
     resume_radius: float = 0.0625,
     resume_above: float = 45.0,
@@ -253,6 +257,11 @@ def step(
         that have both triangles and quads score a quad corner ``q`` (``min(angle,
         180 - angle)``) like a triangle corner of ``q - 30`` (default; see the
         module docstring).  False: ``q``, as everywhere else.
+    strict_above : float or None
+        Only those of them whose local score at their stage 1-2 choice is at least this many degrees
+        (25): where it is lower their quads are no longer the input's good ones, and the strict score
+        would trade the node's smallest triangle corner for a quad corner the mesh's minimum angle
+        does not see (paper-style mixed mesh seed 9: 22.5 -> 16.8 deg in one step).  None: all of them.
     nearest : bool
         In that choice, take the candidate nearest the angle position among
         those whose local quality is at least the acceptance threshold (else
@@ -404,6 +413,8 @@ def step(
             strict = None
             if strict_quads and any_keep:
                 strict = floors.keep[blk.nodes][worst]
+                if strict_above is not None:  # best: the plain score at the stage 1-2 choice, exact here
+                    strict = strict & (best[worst] >= -np.cos(np.radians(strict_above)))
             choice = new[worst] if strict is not None and s_in > -np.inf else None  # (a copy) stages 1-2's
             if fast:  # the same search, one compiled loop (scale, resume test, compass) per node
                 new[worst], _ = _fastcalls.angle_optimize(
