@@ -6,7 +6,7 @@ local indices; :func:`_ascend` is the ascent of one patch, :func:`ascend_all` th
 a pass at once (they share no cell, so none sees another's nodes move): the same operations, bit
 for bit, with one evaluation of all the patches' trial steps per ascent step instead of one per
 patch.  The direction is the min-norm point of the hull of the active corners' gradients
-(:func:`_min_norm`: Wolfe's algorithm, exact, warm-started from the previous step's corral).
+(:func:`._minnorm._min_norm`: Wolfe's algorithm, exact, warm-started from the previous step's corral).
 Pure numpy on a few dozen nodes, the same for the numpy and the compiled kernels.
 """
 
@@ -17,13 +17,14 @@ import math
 import numpy as np
 
 from ..topology import Topology
+from ._minnorm import _wolfe
 
 __all__ = ["ascend_all"]
 
 _GAIN = 1e-10  # radians: a step must raise the minimum by this (round-off never decides a step)
-_WOLFE_TOL = 1e-12  # the min-norm point is found when no row is below it along itself by this x the largest |row|^2
 _EPS_MIN = 1e-4  # radians: the active-set tolerance halves down to this, then the ascent stops
 _HALVINGS = 0.5 ** np.arange(8)
+_BAND_MIN = 1024  # corners x trial steps below which the batch score takes every corner's arctan2
 _FIRST = 4  # trial steps scored first (the rest only if a patch takes none of them)
 
 
@@ -228,123 +229,6 @@ def _corner_gradients(quad, th, u, w) -> np.ndarray:
     return g
 
 
-def _solve_checked(A, b):
-    try:
-        return np.linalg.solve(A, b)
-    except np.linalg.LinAlgError:
-        return np.full(b.shape, np.nan)
-
-
-_solve = _solve_checked
-try:  # np.linalg.solve's own kernel without its wrapper (a third of a small solve's time); NaN if singular
-    from numpy.linalg._umath_linalg import solve1 as _solve1
-
-    with np.errstate(all="ignore"):  # a private kernel: used only if it still solves as np.linalg.solve
-        if np.array_equal(_solve1(np.array([[2.0, 1.0], [1.0, 3.0]]), np.array([3.0, 5.0])),
-                          _solve_checked(np.array([[2.0, 1.0], [1.0, 3.0]]), np.array([3.0, 5.0]))):
-            _solve = _solve1
-except Exception:  # noqa: BLE001 - another numpy layout or signature: the public solve
-    pass
-
-
-def _min_norm(G: np.ndarray, start=()) -> tuple[np.ndarray, list]:
-    """The min-norm point of the convex hull of the rows of G (a, d), exactly: Wolfe's algorithm.
-
-    A corral S of rows (affinely independent) holds the current point x = lam @ G[S] (lam > 0,
-    sum 1); a major cycle adds the row j that is most negative along x (x . G[j] < x . x, by more
-    than :data:`_WOLFE_TOL` times the largest squared row norm: otherwise x is the min-norm point)
-    and moves to the affine minimizer of the corral, a minor cycle drops the rows whose weight that
-    move would make non-positive (the segment stops where the first one reaches 0).  Everything on
-    the Gram matrix M = G G^T; the affine minimizer solves [[M_SS, 1], [1^T, 0]] [mu, nu] = [0, 1].
-    Ties by the first index.  ``start``: rows to start from (the corral of the previous ascent step,
-    where they are still active), when their affine minimizer is inside their hull; else the
-    shortest row.  The min-norm point is unique, so the start only changes the round-off.
-    Returns the point and its corral.
-    """
-    a = G.shape[0]
-    if a == 1:
-        return G[0].copy(), [0]
-    with np.errstate(all="ignore"):  # a singular corral system: NaN, handled below
-        return _wolfe(G, a, list(start))
-
-
-def _rhs(s: int) -> np.ndarray:
-    """(s + 1,) the corral system's right-hand side [0, ..., 0, 1] (a view of one cached array)."""
-    global _RHS
-    if s + 1 > _RHS.shape[0]:
-        _RHS = np.zeros(2 * (s + 1))
-        _RHS[-1] = 1.0
-    return _RHS[-s - 1:]
-
-
-_RHS = np.zeros(64)
-_RHS[-1] = 1.0
-_ONES = np.ones((64, 64))
-
-
-def _ones(s: int) -> np.ndarray:
-    """(s, s) ones (a copy of one cached array)."""
-    global _ONES
-    if s > _ONES.shape[0]:
-        _ONES = np.ones((2 * s, 2 * s))
-    return _ONES[:s, :s].copy()
-_INF = float("inf")
-
-
-def _positive(mu) -> bool:
-    """``np.isfinite(mu).all() and (mu > 0.0).all()`` of a short vector (in Python floats: no ufunc calls)."""
-    return all(0.0 < x < _INF for x in mu.tolist())
-
-
-def _wolfe(G, a, S):
-    # the same BLAS / LAPACK calls on the same values as the plain loop (every product, dot and solve
-    # below); only the bookkeeping around them is in Python floats and lists (a few rows)
-    M = G @ G.T
-    B = _ones(a + 1)  # M bordered by ones: the corral's affine system is a submatrix
-    B[:a, :a] = M
-    B[a, a] = 0.0
-    dg = M.diagonal()
-    tol = _WOLFE_TOL * float(np.maximum.reduce(dg))
-    mu = None
-    if len(S) > 1:
-        ix = S + [a]
-        mu = _solve(B.take(ix, 0).take(ix, 1), _rhs(len(S)))[:-1]
-    if mu is not None and _positive(mu):
-        lam = mu
-    else:
-        S = [int(dg.argmin())]
-        lam = _ONE
-    for _ in range(4 * a + 8):
-        g = M.take(S, 1) @ lam
-        j = int(g.argmin())
-        if float(lam @ g.take(S)) - float(g[j]) <= tol or j in S:
-            break
-        S.append(j)
-        lam = np.concatenate((lam, _ZERO))
-        for _ in range(len(S)):  # minor cycles: at most one row dropped each
-            s = len(S)
-            ix = S + [a]
-            mu = _solve(B.take(ix, 0).take(ix, 1), _rhs(s))[:s]
-            if _positive(mu):
-                lam = mu
-                break
-            if not np.isfinite(mu).all():  # singular (round-off): stop where we are
-                return lam @ G.take(S, 0), S
-            neg = np.flatnonzero(mu <= 0.0)
-            r = lam[neg] / (lam[neg] - mu[neg])
-            i = int(neg[np.argmin(r)])
-            lam = lam + float(r.min()) * (mu - lam)
-            lam[i] = 0.0
-            keep = lam > 0.0
-            S = [x for x, k in zip(S, keep.tolist()) if k]
-            lam = lam[keep]
-    return lam @ G.take(S, 0), S
-
-
-_ONE = np.ones(1)
-_ZERO = np.zeros(1)
-
-
 def _limits(patch: _Patch, Y, area_band, area_limits):
     """The area band (lo, hi) of a patch at its start positions Y (1, n + m, 2)."""
     ar = 0.5 * patch.corners(Y)[2][0, : patch.ntri]
@@ -487,6 +371,8 @@ class _Batch:
         within 1e-8 (1 + pmax^2) of their patch's largest p get the arctan2: every other corner's angle
         is above the minimum's by more than 1e-9 radians, far above the round-off of either; a NaN or
         infinite p (or an overflowing pmax^2) keeps every corner of the patch."""
+        if cr.size <= _BAND_MIN:  # a few corners: every arctan2 costs less than the band's operations
+            return self.quality(cr, dot, slice(None))[0]
         p = dot / cr  # (ascend_all ignores floating-point errors: cr = 0 or an overflow, handled here)
         if self.any_quad:
             p = np.where(self.quad, np.abs(p), p)
