@@ -916,3 +916,58 @@ def test_patch_screening_keeps_every_cell_below_the_threshold(below):
         assert got.size < cells.shape[0]  # it does screen
         fast = _maybe_below(pts, cells, below, fast=True)
         assert np.array_equal(fast, got)
+
+
+@pytest.mark.parametrize("k", [1, 5, 40])
+def test_patch_candidates_come_in_the_exact_quality_order(k):
+    """Stage 5 takes its candidate cells worst first by their exact quality (arctan2) but computes it only
+    for the few worst by a cotangent bound (``_patch._worst_first``): the same cells in the same order as a
+    stable sort of every candidate's exact quality, ties (a structured mesh) and invalid cells included."""
+    from anglesmooth.generate import random_delaunay, structured_quads, structured_triangles
+    from anglesmooth.smoothers._patch import _cell_cot, _worst_first, cell_quality
+
+    rng = np.random.default_rng(3)
+    below = np.radians(30.0)
+    for mesh, jitter in ((structured_triangles(12, 12), 0.0), (structured_quads(12, 12), 0.0),
+                         (random_delaunay(2000, seed=1), 0.0), (structured_quads(20, 20), 0.35)):
+        cells = mesh.triangles if mesh.triangles.shape[0] else mesh.quads
+        pts = np.array(mesh.points[:, :2], float)
+        pts += rng.normal(scale=jitter * np.sqrt(np.ptp(pts[:, 0]) * np.ptp(pts[:, 1]) / pts.shape[0]), size=pts.shape)
+        if jitter == 0.0:  # a few slivers below the threshold, several of exactly equal quality
+            pts[cells[::17, 0]] = 0.5 * (pts[cells[::17, 1]] + pts[cells[::17, 2]]) + 1e-3
+        q = cell_quality(pts, cells)
+        order = np.argsort(q, kind="stable")
+        want = order[q[order] < below].tolist()
+        got = list(_worst_first(_cell_cot(pts, cells), lambda ids: cell_quality(pts, cells[ids]), k, below))
+        assert want and got == want  # (k below and above the number of candidates: both of its paths)
+
+
+def test_patch_batch_score_is_each_patch_alone():
+    """Stage 5's lockstep score (``_patchascent._Batch.score``: arctan2 only at the corners whose cotangent may
+    give the patch's minimum) equals each patch's own score (``_Patch.score``, every corner's arctan2), bit for
+    bit, at random trial positions, some of them inverting cells."""
+    from anglesmooth.smoothers import _patch, _patchascent
+
+    mesh, topo, floors, p, limits = _stage5_inputs("paper_mixed_mesh", 1, passes=2)
+    seen = []
+    orig = _patch.ascend_all
+    _patch.ascend_all = lambda patches, xs, *args: seen.append(patches) or orig(patches, xs, *args)
+    try:
+        _patch.patch_moves(p, topo, floors, area_limits=limits)
+    finally:
+        _patch.ascend_all = orig
+    patches = seen[0]
+    assert len(patches) >= 2 and any(q.nq for q in patches) and any(q.ntri for q in patches)
+    batch = _patchascent._Batch(patches)
+    rng = np.random.default_rng(0)
+    h = np.sqrt(floors.area_median)  # about an edge length
+    for scale in (0.001, 0.01, 1.0):
+        X = [p[q.nodes][None] + rng.normal(scale=scale * h, size=(6, q.n, 2)) for q in patches]
+        Y = np.concatenate([q.positions(x) for q, x in zip(patches, X)], axis=1)
+        lo = np.array([-np.inf] * len(patches))
+        hi = np.array([np.inf] * len(patches))
+        with np.errstate(all="ignore"):
+            f, _ = batch.score(Y, lo, hi)
+            alone = np.stack([q.score(q.positions(x), -np.inf, np.inf)[0] for q, x in zip(patches, X)], axis=1)
+        np.testing.assert_array_equal(f, alone)
+        assert np.isfinite(f).any() if scale < 1.0 else np.isinf(f).any()  # valid rows, then inverted ones

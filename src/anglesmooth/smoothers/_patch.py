@@ -115,11 +115,8 @@ def _csr(topo: Topology, nodes: np.ndarray) -> np.ndarray:
     return np.concatenate(out)
 
 
-def cell_quality(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """Per cell (m, k), the smallest corner quality in radians (quads: ``min(a, pi - a)``); -1 if invalid.
-
-    Corner c: the angle from u = p_{c+1} - p_c to w = p_{c-1} - p_c, ``arctan2(u x w, u . w)``.
-    """
+def _corner_products(points: np.ndarray, cells: np.ndarray):
+    """(cross, dot) (k, m) of every corner of the cells (m, k): :func:`cell_quality`'s products."""
     m, k = cells.shape
     pts = np.asarray(points, dtype=np.float64)
     z = np.ascontiguousarray(pts[:, :2]).view(np.complex128).ravel()
@@ -131,10 +128,30 @@ def cell_quality(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
         ux, uy, wx, wy = u.real, u.imag, w.real, w.imag
         np.subtract(ux * wy, uy * wx, out=cr[i])
         np.add(ux * wx, uy * wy, out=dot[i])
+    return cr, dot
+
+
+def cell_quality(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Per cell (m, k), the smallest corner quality in radians (quads: ``min(a, pi - a)``); -1 if invalid.
+
+    Corner c: the angle from u = p_{c+1} - p_c to w = p_{c-1} - p_c, ``arctan2(u x w, u . w)``.
+    """
+    cr, dot = _corner_products(points, cells)
     th = np.arctan2(cr, dot)
-    if k == 4:
+    if cells.shape[1] == 4:
         th = np.minimum(th, np.pi - th)
     return np.where((cr > 0).all(axis=0), th.min(axis=0), -1.0)
+
+
+def _cell_cot(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Per cell (m, k), the largest corner cotangent (quads: its absolute value), +inf if invalid: a
+    decreasing function of :func:`cell_quality` up to round-off (see :func:`_worst_first`); no arctan2."""
+    cr, dot = _corner_products(points, cells)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p = dot / cr
+    if cells.shape[1] == 4:
+        np.abs(p, out=p)
+    return np.where((cr > 0).all(axis=0), p.max(axis=0), np.inf)
 
 
 def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool = False, ranges=None) -> np.ndarray:
@@ -252,17 +269,39 @@ def _blocked(topo: Topology, floors: Floors | None) -> np.ndarray:
     return hit[1]
 
 
-def _worst_first(qual: np.ndarray, k: int):
-    """The indices of ``np.argsort(qual, kind="stable")`` one by one, sorting only the ``k`` (or a few
-    more) smallest unless more are asked for: the loop over the candidates stops after a few."""
-    if qual.shape[0] > k:
-        v = np.partition(qual, k - 1)[k - 1]
-        head = np.flatnonzero(qual <= v)  # a prefix of the stable order: every smaller value, every tie
-        yield from head[np.argsort(qual[head], kind="stable")].tolist()
-        rest = np.flatnonzero(qual > v)
-        yield from rest[np.argsort(qual[rest], kind="stable")].tolist()
+def _worst_first(cot: np.ndarray, exact, k: int, below: float):
+    """The candidates (indices) whose exact quality ``exact(ids)`` (:func:`cell_quality`) is below
+    ``below`` radians, in ``np.argsort(quality, kind="stable")`` order, one by one; the exact quality
+    only of the ``k`` (or a few more) worst by ``cot`` (:func:`_cell_cot`) unless more are asked for:
+    the loop over the candidates stops after a few.
+
+    A corner's quality is arccot of its (absolute, quads) cotangent p.  Every cell whose cotangent is
+    below pk - 1e-8 (1 + pk^2), pk the k-th largest, has every corner above the worst corner of each
+    of the k by more than 1e-9 radians (far above the round-off of arctan2 or of p): its exact quality
+    is above theirs.  So the cells within that band, sorted by their exact quality up to the largest
+    of the k's, are a prefix of the stable order of all (an infinite or overflowing pk: every cell)."""
+    m = cot.shape[0]
+    pk = np.partition(cot, m - k)[m - k] if m > k else np.nan
+    if pk == pk:  # (a NaN: every cell)
+        with np.errstate(over="ignore", invalid="ignore"):
+            thr = pk - 1e-8 * (1.0 + pk * pk)
+        head = np.flatnonzero(~(cot < thr))
+        qh = exact(head)
+        v = qh[cot[head] >= pk].max()
+        first = qh <= v
+        hq = qh[first]
+        for i in np.argsort(hq, kind="stable").tolist():
+            if not hq[i] < below:
+                return
+            yield int(head[first][i])
+        rest = np.flatnonzero(np.isin(np.arange(m), head[first], invert=True))
     else:
-        yield from np.argsort(qual, kind="stable").tolist()
+        rest = np.arange(m)
+    qr = exact(rest)
+    for i in np.argsort(qr, kind="stable").tolist():
+        if not qr[i] < below:
+            return
+        yield int(rest[i])
 
 
 def patch_moves(
@@ -309,11 +348,15 @@ def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, are
     fast = _fast.active(topo)
     rng = [] if with_range else None
     cand = np.concatenate([_maybe_below(P, topo.tri, below, fast, rng), nt + _maybe_below(P, topo.quad, below, fast, rng)])
-    qual = np.concatenate([cell_quality(P, topo.tri[cand[cand < nt]]), cell_quality(P, topo.quad[cand[cand >= nt] - nt])])
-    keep = qual < np.radians(below)
-    cand, qual = cand[keep], qual[keep]
+    ntc = int(cand.searchsorted(nt))  # the candidates: triangles, then quads
     if not cand.size:
         return P, rng, None
+    cot = np.concatenate([_cell_cot(P, topo.tri[cand[:ntc]]), _cell_cot(P, topo.quad[cand[ntc:] - nt])])
+
+    def exact(ids):
+        t = ids[: int(ids.searchsorted(ntc))]
+        return np.concatenate([cell_quality(P, topo.tri[cand[t]]), cell_quality(P, topo.quad[cand[ids[t.shape[0]:]] - nt])])
+
     S = None
     if size and floors is not None and floors.area_median > 0:
         S = np.radians(below) / (size * floors.area_median)
@@ -321,7 +364,7 @@ def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, are
     out = P.copy()
     done = 0
     patches, patch_cells = [], []
-    for i in _worst_first(qual, 4 * cells + 16):  # at most a few dozen candidates, at most ``cells`` patches
+    for i in _worst_first(cot, exact, 4 * cells + 16, np.radians(below)):  # at most a few dozen candidates, at most ``cells`` patches
         if done >= cells:
             break
         c = int(cand[i])
