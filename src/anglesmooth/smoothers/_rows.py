@@ -218,6 +218,7 @@ def _quad_vals(px, py, cols, fl, want_area=False):
         cm[~ok] = np.inf
     return cm, ok, ar
 
+
 _C30 = math.cos(math.pi / 6)
 
 
