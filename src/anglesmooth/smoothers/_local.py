@@ -33,7 +33,7 @@ from ._floors import Floors
 from ._compass import _COMPASS, optimize  # noqa: F401 (re-exported: moved to _compass)
 from ._targets import angle_target, laplacian_target, local_scale  # noqa: F401 (re-exported: moved to _targets)
 from ._rows import _C30, _CHUNK, _SMALL, _SMALL_SUBSET, _layout, _rowreduce, _Rows, strict_quad  # noqa: F401
-from ._rows import INVALID, INVERTED_WEIGHT, _quad_vals, _tri_vals
+from ._rows import INVALID, INVERTED_WEIGHT, _gather_xy, _quad_vals, _tri_vals
 
 
 
@@ -69,17 +69,16 @@ class BlockGeometry:
                 topo, floors, None if subset is not None else key[1:], t_ids, q_ids)
         with np.errstate(divide="ignore", invalid="ignore"):
             # triangles (p0 moving, p1, p2 fixed)
-            p1, p2 = np.take(points, t_v[0], axis=0), np.take(points, t_v[1], axis=0)
-            self.t_x1, self.t_y1 = p1[:, 0], p1[:, 1]
-            self.t_x2, self.t_y2 = p2[:, 0], p2[:, 1]
+            # (contiguous x / y columns: see _gather_xy)
+            self.t_x1, self.t_y1 = _gather_xy(points, t_v[0])
+            self.t_x2, self.t_y2 = _gather_xy(points, t_v[1])
             self.t_ux = self.t_x2 - self.t_x1  # e12 = p2 - p1
             self.t_uy = self.t_y2 - self.t_y1
             self.t_l12 = np.sqrt(self.t_ux * self.t_ux + self.t_uy * self.t_uy)
             # quads (p0 moving; p1, p2, p3 fixed); corner 2 does not depend on p0
-            p1, p2, p3 = (np.take(points, i, axis=0) for i in q_v)
-            self.q_x1, self.q_y1 = p1[:, 0], p1[:, 1]
-            self.q_x3, self.q_y3 = p3[:, 0], p3[:, 1]
-            x2, y2 = p2[:, 0], p2[:, 1]
+            self.q_x1, self.q_y1 = _gather_xy(points, q_v[0])
+            x2, y2 = _gather_xy(points, q_v[1])
+            self.q_x3, self.q_y3 = _gather_xy(points, q_v[2])
             self.q_ux, self.q_uy = x2 - self.q_x1, y2 - self.q_y1  # e12
             self.q_vx, self.q_vy = self.q_x3 - x2, self.q_y3 - y2  # e23
             self.q_l12 = np.sqrt(self.q_ux * self.q_ux + self.q_uy * self.q_uy)

@@ -12,7 +12,7 @@ import numpy as np
 from ..topology import Block, Topology
 from . import _fast, _fastcalls
 from ._blocks import intp
-from ._rows import _CHUNK
+from ._rows import _CHUNK, _gather_xy
 
 __all__ = ["angle_target", "laplacian_target", "local_scale"]
 
@@ -98,13 +98,12 @@ def _angle_sums(points: np.ndarray, topo: Topology, sl: slice, rel: np.ndarray, 
     """Per node (rows of ``cur``), the sum over its spokes ``sl`` of the rotated positions."""
     n = cur.shape[0]
     cx, cy = np.take(cur[:, 0], rel), np.take(cur[:, 1], rel)
-    pj = np.take(points, intp(topo, "spoke_ring")[sl], axis=0)
-    jx, jy = pj[:, 0], pj[:, 1]
-    pa = np.take(points, intp(topo, "spoke_a")[sl], axis=0)
-    pb = np.take(points, intp(topo, "spoke_b")[sl], axis=0)
+    jx, jy = _gather_xy(points, intp(topo, "spoke_ring")[sl])
+    pax, pay = _gather_xy(points, intp(topo, "spoke_a")[sl])
+    pbx, pby = _gather_xy(points, intp(topo, "spoke_b")[sl])
     with np.errstate(divide="ignore", invalid="ignore"):
-        ax, ay = pa[:, 0] - jx, pa[:, 1] - jy
-        bx, by = pb[:, 0] - jx, pb[:, 1] - jy
+        ax, ay = pax - jx, pay - jy
+        bx, by = pbx - jx, pby - jy
         la = np.sqrt(ax * ax + ay * ay)
         ax /= la
         ay /= la
