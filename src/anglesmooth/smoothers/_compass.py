@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _fastcalls
-from ._rows import INVALID, INVERTED_WEIGHT, _quad_core, _quad_vals, _tri_core, _tri_vals, strict_quad
+from ._rows import INVALID, _quad_core, _tri_core, finish_scores, score_rows, strict_quad
 
 #: Rows (incident cells) per node and kind scored first at every candidate (:class:`_Pruned`): the
 #: node's lowest at the start of the search.  Measured on stage 4 of 100k random triangles (passes
@@ -96,21 +96,22 @@ def optimize(
     # (the geometry restricted once per change of that set; every node's numbers are its own)
     its = np.asarray(iterations)
     x, s0, r = np.array(x, dtype=np.float64), np.array(s0), np.array(r, dtype=np.float64)  # written in place below
-    act, g, step = None, geom, None
     with np.errstate(divide="ignore", invalid="ignore"):
-        _varying(its, x, s0, r, act, g, step, stepper, area_band, lo0, hi0, strict)
+        _varying(its, x, s0, r, geom, stepper, lo0, hi0, strict)
     return x, s0
 
 
-def _varying(its, x, s0, r, act, g, step, stepper, area_band, lo0, hi0, strict):
-    """:func:`optimize`'s loop with one number of steps per node (``x``, ``s0``, ``r`` written in place)."""
+def _varying(its, x, s0, r, g, stepper, lo0, hi0, strict):
+    """:func:`optimize`'s loop with one number of steps per node on geometry ``g`` (``x``, ``s0``, ``r`` written
+    in place; ``lo0``, ``hi0``: the area band's bounds, or None)."""
+    act = step = None  # the nodes still stepping (None: all), the stepper of their geometry
     for k in range(int(its.max(initial=0))):
         on = its if act is None else its[act]
         if not (on > k).all():
             sub = np.flatnonzero(on > k)
             act = sub if act is None else act[sub]
             g, step = g.restrict(sub), None
-            if area_band is not None:
+            if lo0 is not None:
                 lo0, hi0 = lo0[sub], hi0[sub]
             strict = None if strict is None else strict[sub]
         if step is None:
@@ -221,7 +222,8 @@ class _Pruned:
         return out, np.where(better, sk, s0), np.where(better, r, 0.5 * r)
 
     def _scores(self, px, py, node):
-        """The exact (banded) score of every (position, node) pair: ``BlockGeometry.score``'s numbers."""
+        """The exact (banded) score of every (position, node) pair: ``BlockGeometry.score``'s numbers, from the
+        same scorer over the pairs' rows (:func:`._rows.score_rows`)."""
         m = node.shape[0]
         best = bad = out_band = None
         for quads, first, cnt, packed, ncol in self.parts:
@@ -240,10 +242,9 @@ class _Pruned:
             pxr = (px if has is None else px.take(has)).repeat(c)
             pyr = (py if has is None else py.take(has)).repeat(c)
             fl = tuple(cols[ncol:]) if cols.shape[0] > ncol else None
-            vals, ok, ar = (_quad_vals if quads else _tri_vals)(pxr, pyr, tuple(cols[:ncol]), fl, True)
-            if quads and self.q_strict is not None:
-                vals = np.where(self.q_strict.take(nd).repeat(c), strict_quad(vals), vals)
-            low = np.minimum.reduceat(vals, starts)
+            sr = self.q_strict.take(nd).repeat(c) if quads and self.q_strict is not None else None
+            band = None if self.lo0 is None else (self.lo0.take(nd), self.hi0.take(nd))
+            low, w, out = score_rows(quads, pxr, pyr, tuple(cols[:ncol]), fl, c, starts, sr, band)
             if has is None:
                 best = low if best is None else np.minimum(best, low, out=best)
             else:
@@ -251,25 +252,17 @@ class _Pruned:
                     best = np.empty(m)
                     best.fill(np.inf)
                 best[has] = np.minimum(best.take(has), low)
-            if self.lo0 is not None:
-                # every row within [lo0, hi0] of its node: the pair's smallest and largest area within
-                # (a NaN area or bound: outside, as in the rows' own comparisons)
-                inside = np.minimum.reduceat(ar, starts) >= self.lo0.take(nd)
-                inside &= np.maximum.reduceat(ar, starts) <= self.hi0.take(nd)
-                if np.count_nonzero(inside) != m:
-                    if out_band is None:
-                        out_band = np.zeros(m, bool)
-                    out_band[np.flatnonzero(~inside) if has is None else has[~inside]] = True
-            if np.count_nonzero(ok) != ok.shape[0]:
-                # an inverted cell (area <= 0) weighs more than any number of other invalid ones
-                pair = (np.arange(m) if has is None else has).repeat(c)
-                weight = np.where(ar > 0, 1.0, INVERTED_WEIGHT)[~ok]
-                w = np.bincount(pair[~ok], weights=weight, minlength=m)
+            if w is not None:
+                if has is not None:
+                    full = np.zeros(m)
+                    full[has] = w
+                    w = full
                 bad = w if bad is None else bad + w
-        out = best if bad is None else np.where(bad > 0, INVALID - bad, best)
-        if out_band is not None:
-            out[out_band] = -np.inf
-        return out
+            if out is not None:
+                if out_band is None:
+                    out_band = np.zeros(m, bool)
+                out_band[out.nonzero()[0] if has is None else has[out]] = True
+        return finish_scores(best, bad, out_band)
 
 
 def _packed(geom, quads, cols, fl):

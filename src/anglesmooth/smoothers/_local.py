@@ -33,7 +33,7 @@ from ._floors import Floors
 from ._compass import _COMPASS, optimize  # noqa: F401 (re-exported: moved to _compass)
 from ._targets import angle_target, laplacian_target, local_scale  # noqa: F401 (re-exported: moved to _targets)
 from ._rows import _C30, _CHUNK, _SMALL, _SMALL_SUBSET, _layout, _rowreduce, _Rows, strict_quad  # noqa: F401
-from ._rows import INVALID, INVERTED_WEIGHT, _gather_xy, _quad_vals, _tri_vals
+from ._rows import INVALID, INVERTED_WEIGHT, _gather_xy, _quad_vals, _row_area, _tri_vals, finish_scores, score_rows  # noqa: F401
 
 
 
@@ -168,55 +168,39 @@ class BlockGeometry:
         K = Xf.shape[0]
         x0, y0 = np.ascontiguousarray(Xf[..., 0]), np.ascontiguousarray(Xf[..., 1])
         best = np.full((K, self.n), np.inf)
-        bad = np.zeros((K, self.n))
+        bad = out_band = None
         if band is not None:
-            # a node leaves the band where one of its rows does: min / max over its rows compared with
-            # the bounds, row by row (a NaN area or bound leaves it either way)
             b_lo, b_hi = (np.broadcast_to(np.asarray(b, dtype=np.float64), (self.n,)) for b in band)
-            out_band = np.zeros((K, self.n), bool)
         fresh = True  # no row reduced into ``best`` yet (min(inf, v) is v: the first chunk of all nodes assigns)
         with np.errstate(divide="ignore", invalid="ignore"):
-            for rows, kernel, area, rel in (
-                (self._t, self._tri_chunk, self._tri_area, self.t_rel),
-                (self._q, self._quad_chunk, self._quad_area, self.q_rel),
-            ):
+            for quads, rows in ((False, self._t), (True, self._q)):
                 for r0, r1, nodes, d in rows.chunks:
                     # small chunks take several candidates at once (fewer, larger numpy calls)
                     kb = max(1, _CHUNK // (r1 - r0))
                     whole = fresh and kb >= K and nodes.shape[0] == self.n  # nodes: sorted, distinct
                     fresh = False
-                    starts = d if isinstance(d, int) else np.cumsum(d) - d
-                    if band is not None:
-                        r_lo, r_hi = b_lo[rel[r0:r1]], b_hi[rel[r0:r1]]
+                    starts = None if isinstance(d, int) else np.cumsum(d) - d
+                    sr = q_strict[r0:r1] if quads and q_strict is not None else None
+                    bnd = None if band is None else (b_lo[nodes], b_hi[nodes])
                     for k0 in range(0, K, kb):
                         k1 = min(k0 + kb, K)
                         px = np.repeat(x0[k0:k1, nodes], d, axis=1)
                         py = np.repeat(y0[k0:k1, nodes], d, axis=1)
-                        vals, ok, ar = kernel(px, py, r0, r1, band is not None)
-                        if q_strict is not None and rel is self.q_rel:
-                            vals = np.where(q_strict[r0:r1], strict_quad(vals), vals)
+                        cols, fl = self._chunk_cols(quads, px, r0, r1)
+                        low, w, out = score_rows(quads, px, py, cols, fl, d, starts, sr, bnd)
                         if whole:
-                            best[:] = _rowreduce(vals, d, starts=starts)
+                            best[:] = low
                         else:
-                            best[k0:k1, nodes] = np.minimum(best[k0:k1, nodes], _rowreduce(vals, d, starts=starts))
-                        if band is not None:
-                            left = ~((ar >= r_lo) & (ar <= r_hi))
-                            if left.any():
-                                kk, rr = np.nonzero(left)
-                                out_band[k0 + kk, rel[r0 + rr]] = True
-                        if not ok.all():
-                            # an inverted cell (area <= 0) weighs more than any number of
-                            # other invalid (non-convex) cells: swapping one for the other
-                            # is never an improvement
-                            weight = np.where((area(px, py, r0, r1) if ar is None else ar) > 0, 1.0,
-                                              INVERTED_WEIGHT)[~ok]
-                            kk, rr = np.nonzero(~ok)
-                            cnt = np.bincount(kk * self.n + rel[r0 + rr], weights=weight, minlength=(k1 - k0) * self.n)
-                            bad[k0:k1] += cnt.reshape(k1 - k0, self.n)
-        out = np.where(bad > 0, INVALID - bad, best)
-        if band is not None:
-            out[out_band] = -np.inf
-        return out.reshape(lead + (self.n,))
+                            best[k0:k1, nodes] = np.minimum(best[k0:k1, nodes], low)
+                        if w is not None:
+                            if bad is None:
+                                bad = np.zeros((K, self.n))
+                            bad[k0:k1, nodes] += w
+                        if out is not None:
+                            if out_band is None:
+                                out_band = np.zeros((K, self.n), bool)
+                            out_band[k0:k1, nodes] |= out
+        return finish_scores(best, bad, out_band).reshape(lead + (self.n,))
 
     def _has_tris(self) -> np.ndarray:
         """Per node: it has a triangle row (topology only: computed once per geometry)."""
@@ -229,7 +213,7 @@ class BlockGeometry:
         """The score at ``X`` where every incident area stays within [lo0, hi0] (per node), -inf elsewhere.
 
         The same numbers as ``np.where`` of :meth:`area_range` and :meth:`score`, in one pass: the
-        score kernels' corner cross products give the areas exactly (``_tri_chunk``, ``_quad_chunk``).
+        score kernels' corner cross products give the areas exactly (:func:`._rows.score_rows`).
         """
         return self.score(X, (lo0, hi0), strict)
 
@@ -253,18 +237,15 @@ class BlockGeometry:
             out.append(t)
         return tuple(out)
 
-    def _tri_chunk(self, px, py, r0, r1, want_area=False):
-        """(-max cos of the three corners, valid, area or None) for triangle rows r0:r1 (:func:`_tri_vals`)."""
-        cols = self._cols(px, r0, r1, *self._TRI)
-        return _tri_vals(px, py, cols, self._cols(px, r0, r1, *self._TRI_FLOORS) if self.floors else None, want_area)
-
-    def _quad_chunk(self, px, py, r0, r1, want_area=False):
-        """(-max |cos| of the four corners, valid, area or None) for quad rows r0:r1 (:func:`_quad_vals`)."""
+    def _chunk_cols(self, quads: bool, px, r0: int, r1: int) -> tuple:
+        """(columns, floor columns or None) of the rows r0:r1, the operands of :func:`._rows.score_rows`:
+        triangle rows tiled like ``px`` (:meth:`_cols`), quad rows as slices."""
+        if not quads:
+            return self._cols(px, r0, r1, *self._TRI), self._cols(px, r0, r1, *self._TRI_FLOORS) if self.floors else None
         cols = (self.q_x1[r0:r1], self.q_y1[r0:r1], self.q_x3[r0:r1], self.q_y3[r0:r1], self.q_ux[r0:r1],
                 self.q_uy[r0:r1], self.q_vx[r0:r1], self.q_vy[r0:r1], self.q_l12[r0:r1], self.q_l23[r0:r1],
                 self.q_ok2[r0:r1], self.q_cos2[r0:r1])  # _QUAD
-        fl = (self.q_fa[r0:r1], self.q_f1[r0:r1], self.q_f3[r0:r1]) if self.floors else None
-        return _quad_vals(px, py, cols, fl, want_area)
+        return cols, ((self.q_fa[r0:r1], self.q_f1[r0:r1], self.q_f3[r0:r1]) if self.floors else None)
 
     def columns(self, quads: bool, rows: np.ndarray | None = None) -> tuple:
         """(columns, floor columns or None) of the triangle (``quads`` False) or quad rows ``rows``
@@ -313,27 +294,16 @@ class BlockGeometry:
         x0, y0 = np.ascontiguousarray(Xf[..., 0]), np.ascontiguousarray(Xf[..., 1])
         lo = np.full((K, self.n), np.inf)
         hi = np.full((K, self.n), -np.inf)
-        for rows, area in ((self._t, self._tri_area), (self._q, self._quad_area)):
+        for quads, rows in ((False, self._t), (True, self._q)):
             for r0, r1, nodes, d in rows.chunks:
                 kb = max(1, _CHUNK // (r1 - r0))
                 for k0 in range(0, K, kb):
                     k1 = min(k0 + kb, K)
-                    ar = area(np.repeat(x0[k0:k1, nodes], d, axis=1), np.repeat(y0[k0:k1, nodes], d, axis=1), r0, r1)
+                    px, py = np.repeat(x0[k0:k1, nodes], d, axis=1), np.repeat(y0[k0:k1, nodes], d, axis=1)
+                    ar = _row_area(quads, px, py, self._chunk_cols(quads, px, r0, r1)[0])
                     lo[k0:k1, nodes] = np.minimum(lo[k0:k1, nodes], _rowreduce(ar, d))
                     hi[k0:k1, nodes] = np.maximum(hi[k0:k1, nodes], _rowreduce(ar, d, np.maximum))
         return lo.reshape(lead + (self.n,)), hi.reshape(lead + (self.n,))
-
-    def _tri_area(self, px, py, r0, r1):
-        x1, y1, x2, y2 = self._cols(px, r0, r1, "t_x1", "t_y1", "t_x2", "t_y2")
-        ex1, ey1 = x1 - px, y1 - py
-        ex2, ey2 = x2 - px, y2 - py
-        return 0.5 * (ex1 * ey2 - ey1 * ex2)
-
-    def _quad_area(self, px, py, r0, r1):
-        x1, y1 = self.q_x1[r0:r1], self.q_y1[r0:r1]
-        dx, dy = x1 + self.q_ux[r0:r1] - px, y1 + self.q_uy[r0:r1] - py  # p2 - p0
-        fx, fy = self.q_x3[r0:r1] - x1, self.q_y3[r0:r1] - y1  # p3 - p1
-        return 0.5 * (dx * fy - dy * fx)
 
 
 #: Largest number of incidence rows (triangles' plus quads') of a mesh whose blocks keep their rows'

@@ -175,7 +175,7 @@ def _tri_vals(px, py, cols, fl, want_area=False):
     floors ``fl`` (``BlockGeometry._TRI_FLOORS``) or None; +inf where invalid."""
     vals, ex1, ey1, fx2, fy2, l1, l2 = _tri_core(px, py, cols)
     cr = ex1 * fy2 - ey1 * fx2
-    # the area, _tri_area's 0.5 * (e1 x e2) (up to the sign of a zero, which no comparison sees):
+    # the area, _row_area's 0.5 * (e1 x e2) (up to the sign of a zero, which no comparison sees):
     # fx2 = -ex2 and fy2 = -ey2 exactly, so cr = -(e1 x e2) exactly (rounding is symmetric)
     ar = -0.5 * cr if want_area else None
     ok = cr < 0
@@ -218,7 +218,7 @@ def _quad_vals(px, py, cols, fl, want_area=False):
     ok &= cols[10] if cols[10].dtype == bool else cols[10] > 0  # q_ok2 (a float 0 / 1 in a packed copy)
     ar = None
     if fl is not None or want_area:
-        # twice the area: the same operations as _quad_area's
+        # twice the area: the same operations as _row_area's
         a2 = (x1 + ux - px) * (y3 - y1) - (y1 + uy - py) * (x3 - x1)
         ar = 0.5 * a2 if want_area else None
     if fl is not None:
@@ -228,6 +228,64 @@ def _quad_vals(px, py, cols, fl, want_area=False):
     if np.count_nonzero(ok) != ok.size:  # (ok.all(), fewer instructions)
         cm[~ok] = np.inf
     return cm, ok, ar
+
+
+def _row_area(quads: bool, px, py, cols):
+    """The signed area of rows (``BlockGeometry._TRI`` / ``_QUAD`` ``cols``) with p0 at (px, py): the operations
+    of :func:`_tri_vals` / :func:`_quad_vals`'s areas (a triangle's up to the sign of a zero)."""
+    if quads:
+        x1, y1, x3, y3, ux, uy = cols[:6]
+        return 0.5 * ((x1 + ux - px) * (y3 - y1) - (y1 + uy - py) * (x3 - x1))
+    x1, y1, x2, y2 = cols[:4]
+    return 0.5 * ((x1 - px) * (y2 - py) - (y1 - py) * (x2 - px))
+
+
+def score_rows(quads: bool, px, py, cols, fl, d, starts=None, strict=None, band=None):
+    """The local score's parts over segments of rows: the numpy scorer both :meth:`._local.BlockGeometry.score`
+    (a block's chunks of rows) and the compass search's pruned scores (:class:`._compass._Pruned`: rows
+    gathered per (position, node) pair) use.
+
+    Rows of one kind (``quads``) with p0 at (px, py) (``(..., rows)``) and the fixed corners' ``cols`` / input
+    floors ``fl`` (or None); a segment (a node at one position) is every ``d`` consecutive rows (``d`` an int)
+    or the runs of lengths ``d`` starting at ``starts`` (``np.cumsum(d) - d``).  ``strict``: per row (or None),
+    quad rows that score :func:`strict_quad`; ``band``: (lo, hi) per segment or None.  Returns, per segment,
+    (the smallest row value, +inf where invalid; the invalid rows' weight -- 1, or
+    :data:`INVERTED_WEIGHT` for an inverted one (area <= 0) -- or None if no row is invalid; True where a
+    row's area leaves [lo, hi] (a NaN area or bound too), or None if none does / no band).
+    """
+    vals, ok, ar = (_quad_vals if quads else _tri_vals)(px, py, cols, fl, band is not None)
+    if strict is not None:
+        vals = np.where(strict, strict_quad(vals), vals)
+    low = _rowreduce(vals, d, starts=starts)
+    bad = out = None
+    if np.count_nonzero(ok) != ok.size:  # (ok.all(), fewer instructions)
+        if ar is None:
+            ar = _row_area(quads, px, py, cols)
+        # an inverted cell (area <= 0) weighs more than any number of other invalid (non-convex) cells:
+        # swapping one for the other is never an improvement
+        weight = np.where(ar > 0, 1.0, INVERTED_WEIGHT)[~ok]
+        hit = np.nonzero(~ok)
+        seg = hit[-1] // d if isinstance(d, int) else np.searchsorted(starts, hit[-1], side="right") - 1
+        m = low.shape[-1]
+        if low.ndim == 2:
+            seg = hit[0] * m + seg
+        bad = np.bincount(seg, weights=weight, minlength=low.size).reshape(low.shape)
+    if band is not None:
+        # every row within [lo, hi]: the segment's smallest and largest area within (NaN: outside)
+        inside = _rowreduce(ar, d, starts=starts) >= band[0]
+        inside &= _rowreduce(ar, d, np.maximum, starts) <= band[1]
+        if np.count_nonzero(inside) != inside.size:
+            out = ~inside
+    return low, bad, out
+
+
+def finish_scores(best: np.ndarray, bad: np.ndarray | None, out_band: np.ndarray | None) -> np.ndarray:
+    """The scores from :func:`score_rows`'s parts gathered per position: ``INVALID - bad`` where a row is invalid,
+    -inf where one leaves the band, else the smallest row value (``best`` itself if neither)."""
+    out = best if bad is None else np.where(bad > 0, INVALID - bad, best)
+    if out_band is not None:
+        out[out_band] = -np.inf
+    return out
 
 
 _C30 = math.cos(math.pi / 6)
