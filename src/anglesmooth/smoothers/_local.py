@@ -184,22 +184,24 @@ class BlockGeometry:
                     bnd = None if band is None else (b_lo[nodes], b_hi[nodes])
                     for k0 in range(0, K, kb):
                         k1 = min(k0 + kb, K)
-                        px = np.repeat(x0[k0:k1, nodes], d, axis=1)
-                        py = np.repeat(y0[k0:k1, nodes], d, axis=1)
+                        # one candidate: 1-d rows (a (1, rows) operand against the (rows,) columns costs every
+                        # ufunc numpy's general iterator instead of its plain loop)
+                        at = (k0, nodes) if K == 1 else (slice(k0, k1), nodes)
+                        px, py = _chunk_xy(x0, y0, at, d)
                         cols, fl = self._chunk_cols(quads, px, r0, r1)
                         low, w, out = score_rows(quads, px, py, cols, fl, d, starts, sr, bnd)
-                        if whole:
+                        if whole:  # (nodes: sorted, the ragged chunk's too)
                             best[:] = low
                         else:
-                            best[k0:k1, nodes] = np.minimum(best[k0:k1, nodes], low)
+                            best[at] = np.minimum(best[at], low)
                         if w is not None:
                             if bad is None:
                                 bad = np.zeros((K, self.n))
-                            bad[k0:k1, nodes] += w
+                            bad[at] += w
                         if out is not None:
                             if out_band is None:
                                 out_band = np.zeros((K, self.n), bool)
-                            out_band[k0:k1, nodes] |= out
+                            out_band[at] |= out
         return finish_scores(best, bad, out_band).reshape(lead + (self.n,))
 
     def _has_tris(self) -> np.ndarray:
@@ -233,7 +235,8 @@ class BlockGeometry:
             key = (name, r0, r1, k)
             t = tiles.get(key)
             if t is None:
-                t = tiles[key] = np.tile(getattr(self, name)[r0:r1], (k, 1))
+                t = tiles[key] = np.empty((k, r1 - r0), getattr(self, name).dtype)
+                t[...] = getattr(self, name)[r0:r1]  # np.tile's values, without its Python-level overhead
             out.append(t)
         return tuple(out)
 
@@ -298,12 +301,22 @@ class BlockGeometry:
             for r0, r1, nodes, d in rows.chunks:
                 kb = max(1, _CHUNK // (r1 - r0))
                 for k0 in range(0, K, kb):
-                    k1 = min(k0 + kb, K)
-                    px, py = np.repeat(x0[k0:k1, nodes], d, axis=1), np.repeat(y0[k0:k1, nodes], d, axis=1)
+                    at = (k0, nodes) if K == 1 else (slice(k0, min(k0 + kb, K)), nodes)
+                    px, py = _chunk_xy(x0, y0, at, d)
                     ar = _row_area(quads, px, py, self._chunk_cols(quads, px, r0, r1)[0])
-                    lo[k0:k1, nodes] = np.minimum(lo[k0:k1, nodes], _rowreduce(ar, d))
-                    hi[k0:k1, nodes] = np.maximum(hi[k0:k1, nodes], _rowreduce(ar, d, np.maximum))
+                    lo[at] = np.minimum(lo[at], _rowreduce(ar, d))
+                    hi[at] = np.maximum(hi[at], _rowreduce(ar, d, np.maximum))
         return lo.reshape(lead + (self.n,)), hi.reshape(lead + (self.n,))
+
+
+def _chunk_xy(x0: np.ndarray, y0: np.ndarray, at: tuple, d) -> tuple[np.ndarray, np.ndarray]:
+    """The moving corner of a chunk's rows: the candidates ``at`` (``(k, nodes)``: one candidate, 1-d rows;
+    ``(slice, nodes)``: (candidates, rows)) of ``x0``, ``y0`` (candidates, nodes), each node's repeated for
+    its ``d`` rows."""
+    if isinstance(at[0], slice):
+        return np.repeat(x0[at], d, axis=1), np.repeat(y0[at], d, axis=1)
+    k, nodes = at
+    return x0[k].take(nodes).repeat(d), y0[k].take(nodes).repeat(d)
 
 
 #: Largest number of incidence rows (triangles' plus quads') of a mesh whose blocks keep their rows'
