@@ -126,7 +126,7 @@ class BlockGeometry:
             setattr(g, rel_name, rel[rows.perm])
             keep = keep[rows.perm]
             for name in names:
-                setattr(g, name, getattr(self, name)[keep])
+                setattr(g, name, getattr(self, name).take(keep))  # (take: fewer instructions than [keep])
         return g
 
     def _starts(self, rel_name: str) -> tuple[np.ndarray, np.ndarray]:

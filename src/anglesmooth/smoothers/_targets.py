@@ -89,15 +89,20 @@ def angle_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
     cuts = np.unique(np.concatenate([[0], cuts[cuts < n], [n]]))
     for n0, n1 in zip(cuts[:-1].tolist(), cuts[1:].tolist()):
         chunk = slice(sl.start + int(offs[n0]), sl.start + int(offs[n1]))
-        out[n0:n1] = _angle_sums(points, topo, chunk, intp(topo, "spoke_loc")[chunk] - (a0 + n0), cur[n0:n1])
+        out[n0:n1] = _angle_sums(points, topo, chunk, intp(topo, "spoke_loc")[chunk] - (a0 + n0), cur[n0:n1],
+                                 blk.spoke_count[n0:n1])
     out /= blk.spoke_count[:, None]
     return out
 
 
-def _angle_sums(points: np.ndarray, topo: Topology, sl: slice, rel: np.ndarray, cur: np.ndarray) -> np.ndarray:
-    """Per node (rows of ``cur``), the sum over its spokes ``sl`` of the rotated positions."""
+def _angle_sums(points: np.ndarray, topo: Topology, sl: slice, rel: np.ndarray, cur: np.ndarray,
+                counts: np.ndarray | None = None) -> np.ndarray:
+    """Per node (rows of ``cur``), the sum over its spokes ``sl`` of the rotated positions (``rel``: the spokes'
+    node, sorted; ``counts``: spokes per node, if the caller has them)."""
     n = cur.shape[0]
-    cx, cy = np.take(cur[:, 0], rel), np.take(cur[:, 1], rel)
+    # each node's spokes are contiguous (in node order): its current position repeated (cheaper than a gather)
+    cnt = np.bincount(rel, minlength=n) if counts is None else counts
+    cx, cy = cur[:, 0].repeat(cnt), cur[:, 1].repeat(cnt)
     jx, jy = _gather_xy(points, intp(topo, "spoke_ring")[sl])
     pax, pay = _gather_xy(points, intp(topo, "spoke_a")[sl])
     pbx, pby = _gather_xy(points, intp(topo, "spoke_b")[sl])
