@@ -108,8 +108,12 @@ def test_pruning_skips_most_candidates(monkeypatch):
     assert 0 < seen["pairs"] < 0.5 * searched
 
 
-def test_pruned_search_on_a_large_block_with_grouped_rows():
-    """A block of more than ``_rows._SMALL`` rows: its rows are grouped by count, not sorted by node."""
+def test_pruned_search_on_a_large_block_with_grouped_rows(monkeypatch):
+    """A block of more than ``_rows._SMALL`` rows: its rows are grouped by count, not sorted by node (every
+    group in regular chunks: ``_rows._MERGE`` 0)."""
+    from anglesmooth.smoothers import _rows
+
+    monkeypatch.setattr(_rows, "_MERGE", 0)
     mesh = gen.random_delaunay(20000, seed=2)
     topo, pts = _jittered(mesh, 0.3, 1)
     blk = max(topo.blocks(), key=lambda b: b.size)

@@ -144,11 +144,14 @@ def test_numpy_speedups_give_the_same_numbers(name, monkeypatch):
         checked_out += int(np.isinf(plain).sum())
         sub = np.arange(1, blk.size, 3)
         ragged = geom.restrict(sub).score(X[:, sub])
+        from anglesmooth.smoothers import _rows
+
         monkeypatch.setattr(_local, "_SMALL_SUBSET", 0)  # every subset in per-count chunks
+        monkeypatch.setattr(_rows, "_MERGE", 0)  # (no group joins the ragged chunks)
         grouped = geom.restrict(sub)
         monkeypatch.undo()
         monkeypatch.setenv("ANGLESMOOTH_KERNEL", "numpy")
-        assert len(grouped._t.chunks) + len(grouped._q.chunks) >= 1
+        assert all(isinstance(c[3], int) for c in grouped._t.chunks + grouped._q.chunks)
         np.testing.assert_array_equal(grouped.score(X[:, sub]), ragged)
     assert checked_out > 0  # some candidates left the band
 
@@ -366,3 +369,62 @@ def test_an_interrupt_during_a_kernel_is_raised_as_the_interrupt():
     with pytest.raises(SystemError):  # a real error stays what it is
         _fast._run(lambda: _chained(ValueError("bad")))
     assert _fast._run(lambda a, b: a + b, 2, 3) == 5
+
+
+def test_row_groups_joined_into_ragged_chunks():
+    """``_rows._Rows``: every row in exactly one chunk, each node's rows in their order, the groups of fewer
+    than ``_MERGE`` rows last in ragged chunks of sorted nodes; and a block's scores, area ranges and largest
+    corners the same numbers with every group regular, some joined and all joined (random triangles with
+    input floors, one and several candidates, tangled so that invalid and inverted cells count too)."""
+    from anglesmooth.smoothers import _rows
+    from anglesmooth.smoothers._floors import input_floors
+
+    rng = np.random.default_rng(7)
+    for trial in range(60):
+        n = int(rng.integers(1, 3000))
+        counts = rng.integers(0, 14, n)
+        counts[rng.random(n) < 0.6] = 6
+        rel = np.repeat(np.arange(n), counts)
+        if trial % 2:
+            rel = rng.permutation(rel)
+        rows = _rows._Rows(rel, n)
+        order = rel[rows.perm]
+        seen, r, ragged = np.zeros(n, bool), 0, False
+        for r0, r1, nodes, d in rows.chunks:
+            assert r0 == r and not seen[nodes].any()
+            dd = np.full(nodes.shape[0], d) if isinstance(d, int) else d
+            np.testing.assert_array_equal(np.repeat(nodes, dd), order[r0:r1])
+            if isinstance(d, int):
+                assert not ragged  # the ragged chunks last
+            else:
+                ragged = True
+                assert (np.diff(nodes) > 0).all()
+            seen[nodes], r = True, r1
+        assert r == rel.shape[0] and (seen == (counts > 0)).all()
+        for i in rng.integers(0, n, 5):
+            np.testing.assert_array_equal(rows.perm[order == i], np.flatnonzero(rel == i))
+    mesh = gen.random_delaunay(20000, seed=3)
+    pts = tangled(mesh, seed=8).points
+    out = []
+    for merge in (0, 600, _rows._MERGE):
+        _saved, _rows._MERGE = _rows._MERGE, merge
+        try:
+            topo = build_topology(mesh)  # (a fresh layout cache)
+            floors = input_floors(np.array(mesh.points), topo)
+            res, regular = [], 0
+            for blk in topo.blocks():
+                if not blk.size:
+                    continue
+                g = BlockGeometry(pts, topo, blk, floors=floors)
+                regular += sum(isinstance(c[3], int) for c in g._t.chunks)
+                cur = pts[topo.free_nodes[blk.nodes]]
+                X = cur[None] + np.random.default_rng(blk.size).normal(scale=0.01 * np.ptp(pts), size=(3, blk.size, 2))
+                res += [g.score(cur), g.score(X), *g.area_range(X), g.largest(X[0])]
+            out.append((res, regular))
+        finally:
+            _rows._MERGE = _saved
+    assert out[0][1] > out[1][1] > out[2][1]  # fewer regular chunks as more groups join the ragged ones
+    for res, _ in out[1:]:
+        for a, b in zip(out[0][0], res):
+            np.testing.assert_array_equal(a, b)
+    assert sum(int((a < -3).sum()) for a in out[0][0][1::5]) > 0  # some invalid candidates
