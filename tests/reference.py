@@ -186,8 +186,26 @@ def reference_input_min(points, topo):
     return None if worst < 0 else math.degrees(worst)
 
 
+def reference_input_max(points, topo):
+    """The largest corner angle (degrees; quads: every corner) of the cells of a free node of ``points``; None
+    if one of them is invalid (the default's ``keep_max`` rule is then off)."""
+    p = [list(map(float, x)) for x in points]
+    fixed = set(map(int, np.flatnonzero(topo.fixed)))
+    big = 0.0
+    for c in cells_of(topo):
+        if all(v in fixed for v in c):
+            continue
+        k = len(c)
+        for m in range(k):
+            a = corner_angle(p, c[m], c[m - 1], c[(m + 1) % k])
+            if a is None:
+                return None
+            big = max(big, a)
+    return math.degrees(big)
+
+
 def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20.0, accept_above_quad=20.0,
-                   keep=None, keep_largest=True, input_min=None):
+                   keep=None, keep_largest=True, input_min=None, input_max=None):
     """One pass of ``method`` in the topology's colour order, node by node.
 
     For ``angle`` with ``guard`` this is the robust candidate selection (the
@@ -205,6 +223,9 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
     ``input_min`` (degrees, :func:`reference_input_min` of the input; None: no such rule): the acceptance
     threshold, for the angle position and for the nearest good candidate alike, is the larger of it and
     ``accept_above[_quad]`` (the default's ``keep_min``).
+    ``input_max`` (degrees, :func:`reference_input_max` of the input; None: no such rule): a ``keep`` node's
+    best of five leaves out every candidate but staying whose largest moving corner is wider than the
+    largest of staying's, ``input_max`` and a right angle (the default's ``keep_max``).
     """
     p = [list(map(float, x)) for x in points]
     cells = cells_of(topo)
@@ -253,7 +274,12 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
                 continue
             cands = [ang, lap, [(ang[0] + lap[0]) / 2, (ang[1] + lap[1]) / 2], [(ang[0] + cur[0]) / 2, (ang[1] + cur[1]) / 2], cur]
             scores = [local_min_angle(_with(p, i, x), inc[i]) for x in cands]
-            p[i] = cands[int(np.argmax(scores))]
+            allowed = scores
+            if kp and input_max is not None:
+                cap = max(largest_moving_angle(p, i, inc[i]), math.radians(input_max), math.pi / 2)
+                allowed = [s if k == 4 or largest_moving_angle(_with(p, i, x), i, inc[i]) <= cap else -math.inf
+                           for k, (x, s) in enumerate(zip(cands, scores))]
+            p[i] = cands[int(np.argmax(allowed))]
             # the candidate nearest the angle position among those good enough (first on ties)
             near = [k for k in range(1, 5) if scores[k] >= math.radians(good)]
             if near and not kp:
