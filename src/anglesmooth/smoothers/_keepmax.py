@@ -15,7 +15,7 @@ import numpy as np
 
 from ._compass import optimize
 
-__all__ = ["Capped", "capped_scores", "hold_max"]
+__all__ = ["Capped", "capped_argmax", "hold_max"]
 
 
 class Capped:
@@ -45,20 +45,32 @@ class Capped:
         return Capped(self.geom.restrict(subset), self.cap[subset])
 
 
-def capped_scores(sub, keep: np.ndarray, cands: np.ndarray, s: np.ndarray, cap: float) -> np.ndarray:
-    """Stage 2's scores ``s`` (5, n) of the candidates ``cands`` (5, n, 2: A, L, (A+L)/2, (A+C)/2, C) with -inf
-    for every candidate but C of a ``keep`` node that opens a corner it moves (``sub.largest``) beyond the
-    widest of them at C and beyond ``cap`` (``-cos``; ``s`` itself where no node is ``keep``): the
-    caller's first best among the others (stage 3 reads the plain scores)."""
-    kr = np.flatnonzero(keep)
+def capped_argmax(sub, keep: np.ndarray, cands: np.ndarray, s: np.ndarray, cap: float) -> np.ndarray:
+    """Stage 2's choice (``np.argmax(s, axis=0)``, the first best) among the candidates ``cands`` (5, n, 2: A, L,
+    (A+L)/2, (A+C)/2, C) scored ``s`` (5, n), where a ``keep`` node's candidate but C counts -inf if it opens a
+    corner the node moves (``sub.largest``) beyond the widest of them at C and beyond ``cap`` (``-cos``).  The
+    largest corners are computed only where they decide: the first best is tested, and where it is refused
+    the next one, so most nodes score one or two positions, not five (the same choice)."""
+    k = np.argmax(s, axis=0)
+    kr = np.flatnonzero(keep & (k != 4))  # (C is always allowed)
     if not kr.size:
-        return s
+        return k
     g = sub.restrict(kr)
     lim = np.maximum(g.largest(cands[4, kr]), cap)
-    out = s.copy()
-    for j in range(4):
-        out[j, kr] = np.where(g.largest(cands[j, kr]) <= lim, s[j, kr], -np.inf)
-    return out
+    sc = s[:, kr].copy()
+    pick = k[kr]
+    todo = np.arange(kr.size)  # the nodes whose first best is not yet known to be allowed
+    while todo.size:
+        gt = g if todo.size == kr.size else g.restrict(todo)
+        bad = ~(gt.largest(cands[pick[todo], kr[todo]]) <= lim[todo])
+        todo = todo[bad]
+        if not todo.size:
+            break
+        sc[pick[todo], todo] = -np.inf
+        pick[todo] = np.argmax(sc[:, todo], axis=0)
+        todo = todo[pick[todo] != 4]
+    k[kr] = pick
+    return k
 
 
 def hold_max(sub, held, cur, new, choice, cap, start, scale, its, rad, area_band, limits, strict):

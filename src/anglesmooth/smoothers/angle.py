@@ -174,7 +174,7 @@ from ..topology import Topology, signed_areas
 from . import _fast, _fastcalls
 from ._blocks import StepResult, run_blocks, with_area_range
 from ._floors import Floors
-from ._keepmax import capped_scores, hold_max
+from ._keepmax import capped_argmax, hold_max
 from ._local import _COMPASS, INVALID, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
 from ._patch import patch_moves
 
@@ -397,7 +397,7 @@ def step(
             s = np.concatenate([s_a[None, rest], sub.score(extra)])
             cands = np.concatenate([t[None], extra])
             # (keep_max: at the nodes of well-shaped input cells, only the candidates within its cap)
-            k = np.argmax(s if m_in == np.inf or keep is None else capped_scores(sub, keep[rest], cands, s, m_in), 0)
+            k = np.argmax(s, 0) if m_in == np.inf or keep is None else capped_argmax(sub, keep[rest], cands, s, m_in)
             if nearest:
                 # the candidate nearest A among those good enough (not A itself: it was not taken,
                 # nor for the nodes of well-shaped input cells, which keep the best)
