@@ -24,6 +24,7 @@ from anglesmooth.io import read
 from anglesmooth.quality import summarize
 from anglesmooth.smoothers import get_smoother
 from anglesmooth.smoothers._floors import input_floors
+from anglesmooth.smoothers._keepmax import Capped
 from anglesmooth.topology import build_topology
 from reference import reference_input_max, reference_input_min, reference_keep, reference_pass
 
@@ -90,21 +91,33 @@ def test_keep_max_matches_the_per_node_reference():
             assert _mesh_max_deg(held, topo) <= m_in + 1e-9 < _mesh_max_deg(q, topo)
 
 
-def test_stage_4_keeps_its_choice_where_the_search_opens_a_corner():
+def test_stage_4_searches_again_where_the_search_opens_a_corner(monkeypatch):
     """Every node optimized (``opt_fraction=1``, thresholds above any score): the max-min search alone would open
-    the boundary layer's corners beyond the input's widest; with the rule no pass does, and stages 1-2 alone
+    the boundary layer's corners beyond the input's widest; with the rule no pass does, the capped search runs
+    (numpy: :class:`Capped`; numba: ``_node_compass``'s ``cap``, the same points), and stages 1-2 alone
     (``opt_iterations=0``) give other points (the hold acts on the search's results)."""
+    from anglesmooth.smoothers import _keepmax
+
+    made = []
+    monkeypatch.setattr(_keepmax, "Capped", lambda g, cap: made.append(cap.size) or Capped(g, cap))
     mesh, topo = _bl("r9")
     floors = input_floors(np.array(mesh.points), topo)
     m_in = _mesh_max_deg(mesh.points, topo)
     opts = dict(opt_fraction=1.0, opt_below=180.0, opt_below_quad=180.0, patch_cells=0, floors=floors)
     step = get_smoother("angle").step
-    p, q = mesh.points, mesh.points
-    for _ in range(3):
-        p = step(p, topo, **opts).points
-        q = step(q, topo, keep_max=False, **opts).points
-        assert _mesh_max_deg(p, topo) <= m_in + 1e-9
-    assert _mesh_max_deg(q, topo) > m_in + 1.0
+    out = {}
+    for kernel in ("numpy", "numba"):
+        monkeypatch.setenv("ANGLESMOOTH_KERNEL", kernel)
+        p, q = mesh.points, mesh.points
+        for _ in range(3):
+            p = step(p, topo, **opts).points
+            q = step(q, topo, keep_max=False, **opts).points
+            assert _mesh_max_deg(p, topo) <= m_in + 1e-9
+        assert _mesh_max_deg(q, topo) > m_in + 1.0
+        out[kernel] = p
+        if kernel == "numpy":
+            assert sum(made) >= 1  # the search ran again
+    np.testing.assert_array_equal(out["numpy"], out["numba"])
     r = mesh.points
     for _ in range(3):
         r = step(r, topo, opt_iterations=0, patch_cells=0, floors=floors).points
