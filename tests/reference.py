@@ -186,8 +186,68 @@ def reference_input_min(points, topo):
     return None if worst < 0 else math.degrees(worst)
 
 
+def _reference_compass(p, i, inc_i, x, r, iterations, cap=None):
+    """Compass search of node ``i``'s smallest angle from ``x``: the 8 points at distance ``r`` (directions k * 45
+    deg), the first best taken where it beats the score so far, else ``r`` halved.  ``cap`` (radians): a position
+    whose largest moving corner is wider scores -inf."""
+    dirs = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)], axis=1)
+
+    def score(y):
+        if cap is not None and largest_moving_angle(_with(p, i, y), i, inc_i) > cap:
+            return -math.inf
+        return local_min_angle(_with(p, i, y), inc_i)
+
+    x = list(x)
+    s0 = score(x)
+    for _ in range(iterations):
+        cands = [[x[0] + dirs[k, 0] * r, x[1] + dirs[k, 1] * r] for k in range(8)]
+        sc = [score(c) for c in cands]
+        k = int(np.argmax(sc))
+        if sc[k] > s0:
+            x, s0 = cands[k], sc[k]
+        else:
+            r = 0.5 * r
+    return x
+
+
+def _reference_compass_hold(p, i, cur, inc_i, nb_i, kp, input_max, iterations, radius):
+    """Stage 4 of node ``i`` (its stage 1-2 choice at ``p[i]``, its position before the pass ``cur``): the compass
+    search from the choice, radius ``radius`` times the mean length of its edges at ``cur``; a ``keep`` node (``kp``)
+    whose result opens a moving corner wider than the largest of its at ``cur``, ``input_max`` (degrees; None: no
+    rule) and a right angle searches again with such positions refused, and keeps its choice if that result is
+    too (the default's ``keep_max``)."""
+    choice = list(p[i])
+    scale = sum(math.dist(cur, p[j]) for j in nb_i) / len(nb_i)
+    y = _reference_compass(p, i, inc_i, choice, radius * scale, iterations)
+    if kp and input_max is not None:
+        cap = max(largest_moving_angle(_with(p, i, cur), i, inc_i), math.radians(input_max), math.pi / 2)
+        if largest_moving_angle(_with(p, i, y), i, inc_i) > cap:
+            y = _reference_compass(p, i, inc_i, choice, radius * scale, iterations, cap)
+            if largest_moving_angle(_with(p, i, y), i, inc_i) > cap:
+                y = choice
+    return y
+
+
+def reference_input_max(points, topo):
+    """The largest corner angle (degrees; quads: every corner) of the cells of a free node of ``points``; None
+    if one of them is invalid (the default's ``keep_max`` rule is then off)."""
+    p = [list(map(float, x)) for x in points]
+    fixed = set(map(int, np.flatnonzero(topo.fixed)))
+    big = 0.0
+    for c in cells_of(topo):
+        if all(v in fixed for v in c):
+            continue
+        k = len(c)
+        for m in range(k):
+            a = corner_angle(p, c[m], c[m - 1], c[(m + 1) % k])
+            if a is None:
+                return None
+            big = max(big, a)
+    return math.degrees(big)
+
+
 def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20.0, accept_above_quad=20.0,
-                   keep=None, keep_largest=True, input_min=None):
+                   keep=None, keep_largest=True, input_min=None, input_max=None, optimize=None):
     """One pass of ``method`` in the topology's colour order, node by node.
 
     For ``angle`` with ``guard`` this is the robust candidate selection (the
@@ -205,6 +265,12 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
     ``input_min`` (degrees, :func:`reference_input_min` of the input; None: no such rule): the acceptance
     threshold, for the angle position and for the nearest good candidate alike, is the larger of it and
     ``accept_above[_quad]`` (the default's ``keep_min``).
+    ``input_max`` (degrees, :func:`reference_input_max` of the input; None: no such rule): a ``keep`` node's
+    best of five leaves out every candidate but staying whose largest moving corner is wider than the
+    largest of staying's, ``input_max`` and a right angle (the default's ``keep_max``).
+    ``optimize`` (iterations, radius; None: none): every node then takes stage 4's compass search from its stage
+    1-2 choice (:func:`_reference_compass_hold`; the default with ``opt_fraction=1``, thresholds above any
+    score, ``area_band=None``, ``strict_quads=False``, ``resume_iterations=0``).
     """
     p = [list(map(float, x)) for x in points]
     cells = cells_of(topo)
@@ -250,24 +316,31 @@ def reference_pass(points, topo, method, guard=True, halvings=6, accept_above=20
                                and (not keep_largest or largest_moving_angle(_with(p, i, ang), i, inc[i])
                                     <= max(largest_moving_angle(p, i, inc[i]), math.pi / 2)))):
                 p[i] = ang
-                continue
-            cands = [ang, lap, [(ang[0] + lap[0]) / 2, (ang[1] + lap[1]) / 2], [(ang[0] + cur[0]) / 2, (ang[1] + cur[1]) / 2], cur]
-            scores = [local_min_angle(_with(p, i, x), inc[i]) for x in cands]
-            p[i] = cands[int(np.argmax(scores))]
-            # the candidate nearest the angle position among those good enough (first on ties)
-            near = [k for k in range(1, 5) if scores[k] >= math.radians(good)]
-            if near and not kp:
-                dist = [(cands[k][0] - ang[0]) ** 2 + (cands[k][1] - ang[1]) ** 2 for k in near]
-                p[i] = cands[near[int(np.argmin(dist))]]
-            if all(s < 0 for s in scores[:4]) and scores[4] >= 0:
-                # every move invalid (negative), staying valid (>= 0, a 0 deg corner included):
-                # the guarded Laplacian move, halved until valid, else stay
-                for k in range(halvings + 1):
-                    f = 0.5**k
-                    x = [cur[0] + f * (lap[0] - cur[0]), cur[1] + f * (lap[1] - cur[1])]
-                    if local_min_angle(_with(p, i, x), inc[i]) >= 0:
-                        p[i] = x
-                        break
+            else:
+                cands = [ang, lap, [(ang[0] + lap[0]) / 2, (ang[1] + lap[1]) / 2], [(ang[0] + cur[0]) / 2, (ang[1] + cur[1]) / 2], cur]
+                scores = [local_min_angle(_with(p, i, x), inc[i]) for x in cands]
+                allowed = scores
+                if kp and input_max is not None:
+                    cap = max(largest_moving_angle(p, i, inc[i]), math.radians(input_max), math.pi / 2)
+                    allowed = [s if k == 4 or largest_moving_angle(_with(p, i, x), i, inc[i]) <= cap else -math.inf
+                               for k, (x, s) in enumerate(zip(cands, scores))]
+                p[i] = cands[int(np.argmax(allowed))]
+                # the candidate nearest the angle position among those good enough (first on ties)
+                near = [k for k in range(1, 5) if scores[k] >= math.radians(good)]
+                if near and not kp:
+                    dist = [(cands[k][0] - ang[0]) ** 2 + (cands[k][1] - ang[1]) ** 2 for k in near]
+                    p[i] = cands[near[int(np.argmin(dist))]]
+                if all(s < 0 for s in scores[:4]) and scores[4] >= 0:
+                    # every move invalid (negative), staying valid (>= 0, a 0 deg corner included):
+                    # the guarded Laplacian move, halved until valid, else stay
+                    for k in range(halvings + 1):
+                        f = 0.5**k
+                        x = [cur[0] + f * (lap[0] - cur[0]), cur[1] + f * (lap[1] - cur[1])]
+                        if local_min_angle(_with(p, i, x), inc[i]) >= 0:
+                            p[i] = x
+                            break
+            if optimize is not None:  # stage 4 (every node; no area band, no strict quads, no resume)
+                p[i] = _reference_compass_hold(p, i, cur, inc[i], nb[i], kp, input_max, *optimize)
         else:
             raise ValueError(method)
     return np.array(p)

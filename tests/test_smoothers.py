@@ -13,8 +13,8 @@ from anglesmooth.smoothers import SMOOTHERS, get_smoother
 from anglesmooth.errors import UnknownMethodError
 from anglesmooth.topology import build_topology, signed_areas
 
-from reference import (kernel_centroid_ref, reference_keep, reference_pass, reference_patch_moves, reference_strict,
-                       reference_untangle_pass)
+from reference import (kernel_centroid_ref, reference_input_max, reference_input_min, reference_keep, reference_pass,
+                       reference_patch_moves, reference_strict, reference_untangle_pass)
 
 METHODS = sorted(SMOOTHERS)
 SEEDS = range(5)
@@ -314,12 +314,15 @@ def test_well_shaped_input_rule_matches_the_per_node_reference(gen_name, kernel,
         assert former.sum() >= keep.sum() + 10
     # the rule alone (the floors' area and length limits off: the reference has none)
     rule = floors._replace(packed=np.zeros((0, 0)))
+    widest = reference_input_max(mesh.points, topo)  # keep_max, below 150 deg, and keep_min (test_keep_m*.py)
+    rules = dict(input_max=widest if widest is not None and widest < 150.0 else None,
+                 input_min=reference_input_min(mesh.points, topo))
     p = q = plain = first = mesh.points
     for _ in range(2):
         p = get_smoother("angle").step(p, topo, opt_iterations=0, patch_cells=0, floors=rule).points
-        q = reference_pass(q, topo, "angle", keep=keep)
+        q = reference_pass(q, topo, "angle", keep=keep, **rules)
         plain = reference_pass(plain, topo, "angle")
-        first = reference_pass(first, topo, "angle", keep=keep, keep_largest=False)
+        first = reference_pass(first, topo, "angle", keep=keep, keep_largest=False, **rules)
     np.testing.assert_allclose(p, q, rtol=0, atol=1e-9 * np.ptp(mesh.points))
     if keep.any():
         assert np.abs(q - plain).max() > 1e-6 * np.ptp(mesh.points)  # the rule changed some moves
@@ -741,9 +744,11 @@ def test_default_does_not_shear_boundary_layer_quads_to_lift_triangles():
     top = lambda p: summarize(p, topo)["max_angle"]  # noqa: E731
     before, lap = top(mesh.points), top(smooth(mesh, "laplacian", 10, topology=topo).points)
     now = top(smooth(mesh, "angle", 10, topology=topo).points)
-    old = top(smooth(mesh, "angle", 10, topology=topo, strict_quads=False).points)
+    old = top(smooth(mesh, "angle", 10, topology=topo, strict_quads=False, keep_max=False).points)
     assert now <= before + 5.0 and now < lap
     assert old > before + 10.0  # the mechanism the option removes is there on this mesh
+    # (keep_max alone holds it too: no corner of the good parts wider than the input's widest)
+    assert top(smooth(mesh, "angle", 10, topology=topo, strict_quads=False).points) <= before + 1e-9
 
 
 

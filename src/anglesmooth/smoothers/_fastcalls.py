@@ -190,14 +190,15 @@ def _floored_nodes(topo, floors) -> np.ndarray:
     return hit[1]
 
 
-def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, nearest=False, certify=None):
+def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, nearest=False, certify=None, cap=None):
     """Stages 1 and 2 of the robust ``angle`` update, fused per node (see :func:`.angle.step`).
 
     ``good``: the acceptance score threshold, one per block node or one for all; ``keep``: None or
     a bool per block node, where the angle position must also be no worse than staying (and open no
     moving corner beyond staying's widest or 90 deg); ``nearest``:
     stage 2 takes the good-enough candidate nearest the angle position (see :func:`.angle.step`);
-    ``certify``: None or a score per block node (see ``_fastkernels.angle_choose``).  Returns (positions,
+    ``certify``: None or a score per block node (see ``_fastkernels.angle_choose``); ``cap``: None or
+    ``keep_max``'s widest corner (``-cos``; see there).  Returns (positions,
     scores, refused, lazy): ``lazy`` marks the nodes whose score is ``inf`` instead of the exact one.
     """
     rp, sp, tp, qp = _csr(topo)
@@ -213,15 +214,18 @@ def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, ne
         _floored_nodes(topo, floors), np.zeros(0, np.bool_) if keep is None else np.array(keep, dtype=np.bool_),
         bool(nearest),
         np.zeros(0) if certify is None else np.ascontiguousarray(certify, dtype=np.float64),
+        np.inf if cap is None else float(cap),
     )
 
 
 def angle_optimize(points: np.ndarray, topo, blk, worst, x, best, iterations: int, radius: float,
                    area_band: float | None, directions: np.ndarray, area_limits=None, strict=None, floors=None,
-                   resume_iterations: int = 0, resume_radius: float = 0.0, resume_above: float = np.inf):
+                   resume_iterations: int = 0, resume_radius: float = 0.0, resume_above: float = np.inf,
+                   keep=None, cap=None):
     """Stage 4 of the robust ``angle`` update for the block-local nodes ``worst`` (see :func:`.angle.step`),
     one compiled loop: their local scale, the resume test of quad-only nodes and the compass search
-    (``resume_above``: the score, not the angle).  Returns (positions, scores): the numbers of
+    (``resume_above``: the score, not the angle); ``keep`` (None or a bool per node of ``worst``) and ``cap``
+    (None or a ``-cos``): ``keep_max`` (see ``_fastkernels.angle_optimize``).  Returns (positions, scores): the numbers of
     :func:`local_scale`, :meth:`FastGeometry.score` and two :meth:`FastGeometry.compass` calls."""
     rp, _, tp, qp = _csr(topo)
     band = -1.0 if area_band is None else float(area_band)
@@ -232,6 +236,8 @@ def angle_optimize(points: np.ndarray, topo, blk, worst, x, best, iterations: in
         int(iterations), float(radius), band, directions, _floors(floors), lo, hi,
         np.zeros(0, np.bool_) if strict is None else np.ascontiguousarray(strict, dtype=np.bool_),
         int(resume_iterations), float(resume_radius), float(resume_above),
+        np.zeros(0, np.bool_) if keep is None or cap is None else np.ascontiguousarray(keep, dtype=np.bool_),
+        np.inf if cap is None else float(cap),
     )
 
 

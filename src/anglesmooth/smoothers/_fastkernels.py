@@ -194,7 +194,7 @@ def ring_mean(pts, nodes, free, rp, nbr, lengths):
 
 @_kernel
 def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, sap, rp, nbr, tp, tv, qp, qv, good, fl, flnode, keep, nearest,
-                 certify):
+                 certify, cap):
     """Stages 1 and 2 of the robust ``angle`` update (``angle.step``), fused per node.
 
     ``good`` is the per-node acceptance threshold; where ``keep`` (empty: nowhere) the angle position
@@ -208,7 +208,8 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, sap, rp, nbr, tp, tv,
     scores it only when the choice of the worst nodes could depend on it).  ``flnode`` (per free node;
     empty: every node): the nodes with a nonzero floor in ``fl``; the others score the angle position
     without reading ``fl`` (a zero floor never fails: the same scores, 24-72 MB a pass less to read
-    on 1M triangles).
+    on 1M triangles).  ``cap`` (``keep_max``; inf: none): where ``keep``, stage 2 takes no candidate but
+    staying that opens a moving corner beyond ``max(cap, staying's widest)`` (``-cos``).
     """
     n = nodes.shape[0]
     new = np.empty((n, 2))
@@ -247,6 +248,13 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, sap, rp, nbr, tp, tv,
         # candidates in the numpy order: A, L, (A + L) / 2, (A + C) / 2, C; the first best wins
         lx, ly = _node_ring_mean(pts, f, free, rp, nbr, False)
         bx, by, bs = ax, ay, s_a
+        held = kp and cap < np.inf  # keep_max: candidates that open a corner beyond cap_i are left out
+        cap_i = np.inf
+        if held:
+            l_c = _node_largest_rows(cx, cy, f, tp, qp, buf)
+            cap_i = l_c if (l_c != l_c or l_c > cap) else cap  # np.maximum(l_c, cap)
+            if not (_node_largest_rows(ax, ay, f, tp, qp, buf) <= cap_i):
+                bs = -np.inf
         stuck = s_a <= INVALID + 0.5
         near_ok = nearest and not kp
         nx = ny = ns = 0.0
@@ -267,7 +275,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, sap, rp, nbr, tp, tv,
                 stuck = stuck & (sk <= INVALID + 0.5)
             elif stuck:
                 stuck = sk > INVALID + 0.5  # staying is valid
-            if sk > bs:
+            if sk > bs and not (held and k < 3 and not (_node_largest_rows(px, py, f, tp, qp, buf) <= cap_i)):
                 bx, by, bs = px, py, sk
             if near_ok and sk >= good[i]:
                 dx, dy = px - ax, py - ay
@@ -291,13 +299,16 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, sap, rp, nbr, tp, tv,
 
 
 @njit(inline="always")
-def _node_compass(px, py, f, tp, qp, buf, fl, r, iterations, band, directions, alo, ahi, strict, s_start):
+def _node_compass(px, py, f, tp, qp, buf, fl, r, iterations, band, directions, alo, ahi, strict, s_start, cap):
     """``optimize``'s compass search for one node from (px, py), its cells in ``buf`` (:func:`_node_rows`),
     starting radius ``r``: (x, y, score).  ``s_start``: the score at (px, py) if the caller has it (the
-    very number ``_node_score_rows`` gives), else NaN."""
+    very number ``_node_score_rows`` gives), else NaN.  ``cap`` (inf: none; then ``s_start`` must be NaN):
+    a position that opens a corner beyond it (:func:`_node_largest_rows`) scores -inf (``_keepmax.Capped``)."""
     s0 = s_start
     if s0 != s0:
         s0 = _node_score_rows(px, py, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, strict)
+        if cap < np.inf and not (_node_largest_rows(px, py, f, tp, qp, buf) <= cap):
+            s0 = -np.inf
     lo0, hi0 = -np.inf, np.inf  # no band
     if band >= 0:
         lr, hr = _node_area_range_rows(px, py, f, tp, qp, buf)
@@ -313,6 +324,9 @@ def _node_compass(px, py, f, tp, qp, buf, fl, r, iterations, band, directions, a
             # band gives -inf at once (the outcome depends only on the candidates above s0, and
             # those are exact and within the band either way)
             sc = _node_score_rows(qx, qy, f, tp, qp, buf, fl, max(bs, s0), lo0, hi0, strict)
+            # (capped: only a candidate that could win is tested; the others cannot move the node either way)
+            if cap < np.inf and sc > max(bs, s0) and not (_node_largest_rows(qx, qy, f, tp, qp, buf) <= cap):
+                sc = -np.inf
             if c == 0 or sc > bs:  # np.argmax: the first best
                 bx, by, bs = qx, qy, sc
         if bs > s0:
@@ -336,20 +350,23 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
         _node_rows(pts, f, tp, tv, qp, qv, buf)
         st = strict.shape[0] > 0 and strict[i] and tp[f + 1] > tp[f]
         out[i, 0], out[i, 1], s_out[i] = _node_compass(x[i, 0], x[i, 1], f, tp, qp, buf, fl, radius * scale[i],
-                                                       iterations, band, directions, alo, ahi, st, np.nan)
+                                                       iterations, band, directions, alo, ahi, st, np.nan, np.inf)
     return out, s_out
 
 
 @_kernel
 def angle_optimize(pts, x, nodes, free, rp, nbr, tp, tv, qp, qv, best, iterations, radius, band, directions, fl,
-                   alo, ahi, strict, resume_iterations, resume_radius, resume_above):
+                   alo, ahi, strict, resume_iterations, resume_radius, resume_above, keep, cap):
     """Stage 4 of the robust ``angle`` update (``angle.step``) for its worst nodes, fused per node: the
     local scale (``local_scale``), the resume test of a quad-only node (staying scores above ``best``,
     its stage 1-2 score, and at least ``resume_above``: ``resume_iterations`` steps from there from
     ``resume_radius``; ``resume_iterations`` 0: never) and else the compass search from ``x`` (the
     stage 1-2 choice), ``iterations`` steps from ``radius``, ``strict`` as in :func:`compass`; ``best`` must
     be the exact score of ``x`` (the search starts from it, and from ``s_c`` when it resumes, unless the
-    node is strict).  The same numbers as ``local_scale``, ``score`` and two ``compass`` calls."""
+    node is strict).  The same numbers as ``local_scale``, ``score`` and two ``compass`` calls.  ``keep``
+    (per node, empty: none) and ``cap`` (inf: none): ``keep_max``, a node of ``keep`` whose result opens a
+    moving corner beyond ``cap_i = max(cap, its widest at its current position)`` (``-cos``) searches again
+    from the same start with positions beyond ``cap_i`` refused, and keeps ``x`` where even that result is."""
     n = nodes.shape[0]
     out = np.empty((n, 2))
     s_out = np.empty(n)
@@ -368,5 +385,16 @@ def angle_optimize(pts, x, nodes, free, rp, nbr, tp, tv, qp, qv, best, iteration
             if (s_c > best[i]) & (s_c >= resume_above):
                 px, py, its, r, s_start = cx, cy, resume_iterations, resume_radius * scale, s_c
         out[i, 0], out[i, 1], s_out[i] = _node_compass(px, py, f, tp, qp, buf, fl, r, its, band, directions,
-                                                       alo, ahi, st, s_start)
+                                                       alo, ahi, st, s_start, np.inf)
+        if keep.shape[0] > 0 and keep[i] and cap < np.inf:  # keep_max
+            l_c = _node_largest_rows(pts[free[f], 0], pts[free[f], 1], f, tp, qp, buf)
+            cap_i = l_c if (l_c != l_c or l_c > cap) else cap  # np.maximum(l_c, cap)
+            if not (_node_largest_rows(out[i, 0], out[i, 1], f, tp, qp, buf) <= cap_i):
+                # the search again from the same start, refusing every position beyond cap_i
+                qx, qy, qs = _node_compass(px, py, f, tp, qp, buf, fl, r, its, band, directions, alo, ahi, st, np.nan,
+                                           cap_i)
+                if _node_largest_rows(qx, qy, f, tp, qp, buf) <= cap_i:
+                    out[i, 0], out[i, 1], s_out[i] = qx, qy, qs
+                else:
+                    out[i, 0], out[i, 1], s_out[i] = x[i, 0], x[i, 1], best[i]
     return out, s_out

@@ -52,6 +52,10 @@ class Floors(NamedTuple):
     #: angle)``) over the cells of a free node: the default ``angle`` accepts no position below it in
     #: stages 1-2 (see :func:`.angle.step`, ``keep_min``); -inf: an invalid input cell (no such rule)
     score_min: float = -np.inf
+    #: the input's largest corner (``-cos``; quads: every corner) over the cells of a free node: the default
+    #: ``angle``'s ``keep_max`` opens no corner of a well-shaped input node beyond it (see :func:`.angle.step`);
+    #: 1.0 (180 deg): an invalid input cell, or none (no such rule)
+    largest_max: float = 1.0
 
     @property
     def active(self) -> bool:
@@ -78,12 +82,13 @@ def _edge_lengths(px, py):
 
 def _cell_shape(z: np.ndarray, cells: np.ndarray):
     """(edge lengths (k, n), well shaped (n,), near-rectangular (n,) or None, twice the signed area (n,),
-    score (n,)) of (n, k) ccw cells.
+    score (n,), largest (n,)) of (n, k) ccw cells.
 
     Edge m runs from corner m to m + 1; well shaped: every corner within ``KEEP_QUAD`` of a right
     angle (quads) or at least ``KEEP_TRI`` (triangles); near-rectangular: within ``KEEP_RECT``;
     score: the local score of the smoothers' kernels, ``-cos`` of the smallest corner (triangles)
-    or ``-max |cos|`` (quads), -inf for a cell with an invalid (reflex, degenerate) corner.
+    or ``-max |cos|`` (quads), -inf for a cell with an invalid (reflex, degenerate) corner; largest:
+    ``-cos`` of the widest corner, 1.0 for a cell with an invalid one.
     """
     k = cells.shape[1]
     px, py = _gather(z, cells)
@@ -91,19 +96,22 @@ def _cell_shape(z: np.ndarray, cells: np.ndarray):
     good = np.ones(cells.shape[0], bool)
     rect = np.ones(cells.shape[0], bool) if k == 4 else None
     score = np.full(cells.shape[0], np.inf)
+    largest = np.full(cells.shape[0], -np.inf)
     with np.errstate(divide="ignore", invalid="ignore"):
         for m in range(k):
             j = m - 1  # corner m lies between edge m and the reversed edge m - 1
             cos = -(ex[m] * ex[j] + ey[m] * ey[j]) / (e[m] * e[j])
             ok = ex[j] * ey[m] - ey[j] * ex[m] > 0
             # (a NaN cosine fails ``< inf``: -inf)
-            score = np.minimum(score, np.where(ok & (np.abs(cos) < np.inf), -np.abs(cos) if k == 4 else -cos, -np.inf))
+            valid = ok & (np.abs(cos) < np.inf)
+            score = np.minimum(score, np.where(valid, -np.abs(cos) if k == 4 else -cos, -np.inf))
+            largest = np.maximum(largest, np.where(valid, -cos, 1.0))
             if k == 4:
                 good &= (np.abs(cos) <= np.cos(np.radians(90.0 - KEEP_QUAD))) & ok
                 rect &= (np.abs(cos) <= np.cos(np.radians(90.0 - KEEP_RECT))) & ok
             else:
                 good &= (cos <= np.cos(np.radians(KEEP_TRI))) & ok
-    return e, good, rect, _area2(px, py), score
+    return e, good, rect, _area2(px, py), score, largest
 
 
 def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, aniso: float = ANISO) -> Floors:
@@ -140,16 +148,18 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
     an_node = np.zeros(n, bool)  # per point: a corner of an anisotropic cell
     not_rect = np.zeros(n, bool)  # per point: a quad of it is not near-rectangular
     s_min = np.inf  # the smallest score of a cell with a free node
+    l_max = -np.inf  # the largest corner (-cos) of a cell with a free node
     # in chunks of cells / rows: element-wise, so the same values, with temporaries of a bounded size
     for all_cells in (topo.tri, topo.quad):
         k = all_cells.shape[1]
         for c0 in range(0, all_cells.shape[0], _CHUNK):
             cells = all_cells[c0 : c0 + _CHUNK]
-            e, good, rect, a2, score = _cell_shape(z, cells)
+            e, good, rect, a2, score, largest = _cell_shape(z, cells)
             areas.append(0.5 * np.abs(a2))
             moves = ~topo.fixed[cells].all(axis=1)
             if moves.any():
                 s_min = min(s_min, float(score[moves].min()))
+                l_max = max(l_max, float(largest[moves].max()))
             emax, emin = np.max(e, axis=0), np.min(e, axis=0)
             an = emax >= aniso * emin
             an_node[cells[an].ravel()] = True
@@ -180,7 +190,8 @@ def input_floors(points: np.ndarray, topo: Topology, fraction: float = FLOOR, an
     if not an_node.any():
         packed = np.zeros((0, 0))
     med = float(np.median(np.concatenate(areas))) if areas else 0.0
-    return Floors(*out, packed, keep, med, s_min if s_min < np.inf else -np.inf)
+    return Floors(*out, packed, keep, med, s_min if s_min < np.inf else -np.inf,
+                  l_max if -np.inf < l_max < 1.0 else 1.0)
 
 
 def _area2(px, py) -> np.ndarray:

@@ -65,7 +65,13 @@ The robust default (``guard=True``)
        one nearest A whose local quality is at least the acceptance
        threshold; where none is, the best of those and A by local quality,
        no candidate with an inverted, degenerate or non-convex cell (C is one
-       of them).  Nodes of well-shaped input cells always take the best.
+       of them).  Nodes of well-shaped input cells always take the best, of C
+       and the candidates that open no corner the node moves wider than the
+       widest of them at C and than the input's widest (``keep_max``,
+       :attr:`._floors.Floors.largest_max`, at least 90 deg; only where that
+       is below ``keep_max_below``, 150 deg, a good input): else the best
+       of five took A anyway where stage 1's test refused it (gmsh boundary
+       layers around a hole: 103.9 -> 108-116 deg).
     3. *Stuck nodes*: where all four moves are invalid and staying is not,
        the guarded Laplacian move (halved until valid).  A quad flattened
        onto the boundary whose two free corners block each other gets out
@@ -94,7 +100,11 @@ The robust default (``guard=True``)
        where it would end below the input's smallest local score, the node
        keeps its stage 1-2 choice (``keep_min``; gmsh boundary layers around a
        hole went 39.20 -> 38.3-39.1 deg without, see
-       ``docs/default_method.md``).  A node of quads only that scores higher
+       ``docs/default_method.md``).  Nor does the search see the widest
+       angle: where it opens a corner of a node of well-shaped input cells
+       beyond stage 2's cap (``keep_max``), that node searches again from the
+       same start refusing every such position (:mod:`._keepmax`), else keeps
+       its stage 1-2 choice.  A node of quads only that scores higher
        where it is (C) than at its stage 1-2 choice and is at least
        ``resume_above`` (45 deg) good there -- it was optimized in the previous pass and
        pulled back toward A -- resumes the search from C instead, with
@@ -133,7 +143,11 @@ The robust default (``guard=True``)
     invalid or nearly flat cells in the quality matrix) and stage 5's size
     term, which may trade a corner for a small cell's area in a patch of
     cells below ``patch_below`` (30 deg), so only on inputs worse than
-    that.  *Not* guaranteed: that the local minimum angle of a node never
+    that.  With ``keep_max`` (an input widest below 150 deg) a node of
+    well-shaped input cells opens no corner it moves wider than the widest
+    of them before its move and than the input's widest (or 90 deg), in
+    stages 1, 2 and 4 (stage 5 does not move it).  *Not*
+    guaranteed: that the local minimum angle of a node never
     decreases, nor the mesh's minimum from one pass to the next (stage 1
     takes positions above the input's minimum but below the node's current
     score; the nodes of well-shaped input cells keep the monotone rule).
@@ -160,6 +174,7 @@ from ..topology import Topology, signed_areas
 from . import _fast, _fastcalls
 from ._blocks import StepResult, run_blocks, with_area_range
 from ._floors import Floors
+from ._keepmax import capped_argmax, hold_max
 from ._local import _COMPASS, INVALID, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
 from ._patch import patch_moves
 
@@ -227,6 +242,8 @@ def step(
     patch_below: float = 30.0,
     patch_iterations: int = 15,
     keep_min: bool = True,
+    keep_max: bool = True,
+    keep_max_below: float = 150.0,
     floors: Floors | None = None,
     area_range: tuple[float, float] | None = None,
 ) -> StepResult:
@@ -288,6 +305,12 @@ def step(
         module docstring).  Off without ``floors`` (a library call that passes none: no input to
         compare with; the driver always passes them) and where an input cell of a free node is
         invalid (``score_min`` -inf).
+    keep_max : bool
+        At nodes of well-shaped input cells (``floors.keep``), stage 2 takes no candidate but C that opens
+        a corner the node moves wider than ``max(its widest at C, floors.largest_max, 90 deg)``, and a
+        stage-4 result that does searches again with such positions refused (else the stage 1-2 choice);
+        see the module docstring.  Only where the input's widest corner is below ``keep_max_below`` (150
+        deg; paper-style mixed seed 27, input 169.7: 28.00 -> 27.11 deg with it), with ``floors``.
     floors : :class:`._floors.Floors` or None
         Input floors of the guard (see :func:`._floors.input_floors`; the
         driver passes them).
@@ -324,6 +347,11 @@ def step(
 
     any_keep = floors is not None and bool(floors.keep.any())  # once per pass, not per colour class
     s_in = floors.score_min if keep_min and floors is not None else -np.inf  # the input's worst local score
+    # keep_max: the widest corner (-cos) a node of well-shaped input cells may open beyond its own widest when
+    # staying, in stages 2 and 4: the input's widest, and at least a right angle (inf: no such rule)
+    m_in = np.inf
+    if keep_max and any_keep and floors.largest_max < -np.cos(np.radians(keep_max_below)):
+        m_in = max(float(floors.largest_max), 0.0)
 
     def choose(pts, blk, cur, geom):
         """Stages 1 and 2: (positions, their local scores, number of invalid angle positions, None or the
@@ -342,7 +370,8 @@ def step(
             if opt_iterations > 0 and not (floors is not None and floors.active):
                 below = _per_node(topo, blk, opt_below, opt_below_quad)
                 certify = np.full(blk.size, below.max() if below.size else -np.inf)
-            new, best, refused, lazy = _fastcalls.angle_choose(pts, topo, blk, good, floors, keep, nearest, certify)
+            new, best, refused, lazy = _fastcalls.angle_choose(pts, topo, blk, good, floors, keep, nearest, certify,
+                                                               cap=m_in)
             return new, best, int(refused.sum()), lazy
         target = angle_target(pts, topo, blk)
         s_a = geom.score(target)
@@ -367,7 +396,8 @@ def step(
             extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c), c])
             s = np.concatenate([s_a[None, rest], sub.score(extra)])
             cands = np.concatenate([t[None], extra])
-            k = np.argmax(s, axis=0)
+            # (keep_max: at the nodes of well-shaped input cells, only the candidates within its cap)
+            k = np.argmax(s, 0) if m_in == np.inf or keep is None else capped_argmax(sub, keep[rest], cands, s, m_in)
             if nearest:
                 # the candidate nearest A among those good enough (not A itself: it was not taken,
                 # nor for the nodes of well-shaped input cells, which keep the best)
@@ -416,10 +446,11 @@ def step(
                 if strict_above is not None:  # best: the plain score at the stage 1-2 choice, exact here
                     strict = strict & (best[worst] >= -np.cos(np.radians(strict_above)))
             choice = new[worst] if strict is not None and s_in > -np.inf else None  # (a copy) stages 1-2's
-            if fast:  # the same search, one compiled loop (scale, resume test, compass) per node
+            held = floors.keep[blk.nodes][worst] if m_in < np.inf else None  # keep_max's nodes
+            if fast:  # the same search, one compiled loop (scale, resume test, compass, keep_max) per node
                 new[worst], _ = _fastcalls.angle_optimize(
                     pts, topo, blk, worst, new[worst], best[worst], opt_iterations, 0.25, area_band, _COMPASS, limits,
-                    strict, floors, resume_iterations, resume_radius, -np.cos(np.radians(resume_above)))
+                    strict, floors, resume_iterations, resume_radius, -np.cos(np.radians(resume_above)), held, m_in)
                 _hold_strict(geom, blk, worst, strict, choice, new)
                 return new, refused
             sub = geom.restrict(worst)
@@ -438,8 +469,12 @@ def step(
                         start[b], s_start[b] = cur[worst[b]], s_c[np.searchsorted(q, b)]
                         its, rad = np.full(worst.size, opt_iterations), np.full(worst.size, 0.25)
                         its[b], rad[b] = resume_iterations, resume_radius
+            choice_max = new[worst] if held is not None and held.any() else None  # (a copy)
             new[worst], _ = optimize(sub, start, scale, its, rad, area_band, limits, strict, s_start)
             _hold_strict(geom, blk, worst, strict, choice, new)
+            if choice_max is not None:  # keep_max (start: each search's start; optimize does not write it)
+                new[worst] = hold_max(sub, held, cur[worst], new[worst], choice_max, m_in, start, scale, its, rad,
+                                      area_band, limits, strict)
         return new, refused
 
     def _hold_strict(geom, blk, worst, strict, choice, new):
