@@ -103,7 +103,7 @@ def _wolfe(G, a, S):
     for _ in range(4 * a + 8):
         g = M.take(S, 1) @ lam
         j = int(g.argmin())
-        if float(lam @ g.take(S)) - float(g[j]) <= tol or j in S:
+        if j in S or float(lam @ g.take(S)) - float(g[j]) <= tol:  # (either way: done)
             break
         S.append(j)
         lam = np.concatenate((lam, _ZERO))

@@ -115,6 +115,13 @@ def _csr(topo: Topology, nodes: np.ndarray) -> np.ndarray:
     return np.concatenate(out)
 
 
+def _ring_of(topo: Topology, nodes: np.ndarray) -> np.ndarray:
+    """The ring neighbours of ``nodes``, node after node (``topo.ring_indices``' slices, concatenated)."""
+    lo, hi = topo.ring_offsets[nodes], topo.ring_offsets[nodes + 1]
+    n = hi - lo
+    return topo.ring_indices[np.repeat(lo - (np.cumsum(n) - n), n) + np.arange(int(n.sum()))]
+
+
 def _corner_products(points: np.ndarray, cells: np.ndarray):
     """(cross, dot) (k, m) of every corner of the cells (m, k): :func:`cell_quality`'s products."""
     m, k = cells.shape
@@ -154,7 +161,8 @@ def _cell_cot(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return np.where((cr > 0).all(axis=0), p.max(axis=0), np.inf)
 
 
-def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool = False, ranges=None) -> np.ndarray:
+def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool = False, ranges=None,
+                 cots=None) -> np.ndarray:
     """Ids (ascending) of a superset of the cells whose :func:`cell_quality` is below ``below`` degrees.
 
     A corner of angle a in (0, 180) has min(a, 180 - a) < b exactly when its cross product is below
@@ -162,9 +170,12 @@ def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool
     (the exact quality then decides), and an invalid corner (cross <= 0) always counts.  Sqrt- and
     arctan-free, on a few columns at a time.  ``ranges`` (a list): the cells' area range per chunk,
     from the same read (:func:`._fastcalls.screen_cells`; numpy: (lo, hi) per :data:`_RANGE_CHUNK`
-    cells), is appended to it, None where the screen did not run.
+    cells), is appended to it, None where the screen did not run.  ``cots`` (a list): the kept cells'
+    :func:`_cell_cot`, where the compiled screen gave it (from the same read), is appended to it, else None.
     """
     m, k = cells.shape
+    if cots is not None and not (fast and m and 0.0 < below < 89.0):
+        cots.append(None)
     if m == 0 or below <= 0.0 or below >= 89.0:  # no cell, or none / (almost) every cell: no screen
         if ranges is not None:
             ranges.append((np.empty(0), np.empty(0), np.empty(0, bool)) if m == 0 else None)
@@ -173,9 +184,11 @@ def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool
     if fast:  # the same test, compiled (``fast``: the mesh runs on the compiled kernels), threaded, with
         # the cells' area range in the same read (the next pass's ``area_limits``); through _fast: its
         # compile (0.2-0.4 s, the first run ever) is timed apart, as every kernel's
-        ids, rng = _fastcalls.screen_cells(points, cells, t)
+        ids, rng, cot = _fastcalls.screen_cells(points, cells, t)
         if ranges is not None:
             ranges.append(rng)
+        if cots is not None:
+            cots.append(cot)
         return ids
     rlo = rhi = None
     if ranges is not None:  # the area range per chunk of _RANGE_CHUNK cells, from the same read
@@ -347,11 +360,14 @@ def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, are
     # exact quality of every cell was most of a pass); the same cells, values and order as from all
     fast = _fast.active(topo)
     rng = [] if with_range else None
-    cand = np.concatenate([_maybe_below(P, topo.tri, below, fast, rng), nt + _maybe_below(P, topo.quad, below, fast, rng)])
+    cots = []  # the candidates' _cell_cot where the compiled screen gave it
+    cand = np.concatenate([_maybe_below(P, topo.tri, below, fast, rng, cots),
+                           nt + _maybe_below(P, topo.quad, below, fast, rng, cots)])
     ntc = int(cand.searchsorted(nt))  # the candidates: triangles, then quads
     if not cand.size:
         return P, rng, None
-    cot = np.concatenate([_cell_cot(P, topo.tri[cand[:ntc]]), _cell_cot(P, topo.quad[cand[ntc:] - nt])])
+    cot = np.concatenate([_cell_cot(P, topo.tri[cand[:ntc]]) if cots[0] is None else cots[0],
+                          _cell_cot(P, topo.quad[cand[ntc:] - nt]) if cots[1] is None else cots[1]])
 
     def exact(ids):
         t = ids[: int(ids.searchsorted(ntc))]
@@ -372,11 +388,13 @@ def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, are
         nodes = verts[~blocked[verts]]
         if not nodes.size:
             continue
+        done += 1
+        if used_cells[c]:  # the cell is one of its own patch's (a corner of it moves): shared, skipped
+            continue
         for _ in range(rings):
-            nb = np.concatenate([topo.ring_indices[topo.ring_offsets[v]:topo.ring_offsets[v + 1]] for v in nodes])
+            nb = _ring_of(topo, nodes)
             nodes = np.union1d(nodes, nb[~blocked[nb]])
         ids = np.unique(_csr(topo, nodes))
-        done += 1
         if used_cells[ids].any():
             continue
         used_cells[ids] = True

@@ -169,33 +169,55 @@ class _Patch:
         return self.gradient_rows(sel, _corner_gradients(self.quad[sel] if self.any_quad else None, th, u, w)
                                   ).reshape(sel.shape[0], self.n, 2)
 
+    def _cols6(self) -> np.ndarray:
+        """(C, 6): where a corner's 6 gradient entries go among the columns of :meth:`gradient_rows`' rows:
+        its slots' (x, y), the non-moving slots' to 2 spare columns (topology only, cached)."""
+        c = self.__dict__.get("_col6")
+        if c is None:
+            slot = np.minimum(self.l3, self.n)
+            c = self._col6 = (2 * slot[:, :, None] + np.arange(2)).reshape(-1, 6)
+        return c
+
     def gradient_rows(self, sel, g6):
         """(c, 2 n) C-contiguous: the corners ``sel``'s gradients ``g6`` (c, 6; :func:`_corner_gradients`)
         as rows over the moving nodes' (x, y)."""
-        c = self.__dict__.get("_col6")
-        if c is None:  # where a corner's 6 entries go: its slots' (x, y), the non-moving ones to 2 spare columns
-            slot = np.minimum(self.l3, self.n)
-            c = self._col6 = (2 * slot[:, :, None] + np.arange(2)).reshape(-1, 6)
         G = np.zeros((sel.shape[0], 2 * self.n + 2))
         # a corner's three nodes are distinct: one value per moving entry, as np.add.at would sum it
-        G[_rows(sel.shape[0]), c[sel]] = g6
+        G[_rows(sel.shape[0]), self._cols6()[sel]] = g6
         return np.ascontiguousarray(G[:, : 2 * self.n])
 
-    def area_gradients(self, sel, Y):
-        """(c, n, 2): gradient of ``S`` x the area of the cells ``sel`` (indices in area order: triangles,
-        then quads) at local positions Y (n + m, 2) with respect to the moving nodes.  Corner i of a
-        polygon moves its area by (y_{i+1} - y_{i-1}, x_{i-1} - x_{i+1}) / 2 (the shoelace formula)."""
-        G = np.zeros((sel.shape[0], self.ext.shape[0] + self.n, 2))
-        for cells, rows in ((self.lt, sel < self.ntri), (self.lq, sel >= self.ntri)):
+    def _area_tables(self):
+        """Per kind (triangles, quads): (the cells' local slots rolled by -1 and by +1, the columns of
+        their x entries in :meth:`gradient_rows`' layout), topology only, cached."""
+        t = self.__dict__.get("_atab")
+        if t is None:
+            t = self._atab = [None if v is None else (np.roll(v, -1, axis=1), np.roll(v, 1, axis=1), 2 * np.minimum(v, self.n))
+                              for v in (self.lt, self.lq)]
+        return t
+
+    def area_rows(self, sel, Y, G):
+        """Into the rows G (c, 2 n + 2; zeros): the gradient of ``S`` x the area of the cells ``sel``
+        (indices in area order: triangles, then quads) at local positions Y (n + m, 2) with respect to
+        the moving nodes' (x, y) (the 2 spare columns take the other corners').  Corner i of a polygon
+        moves its area by (y_{i+1} - y_{i-1}, x_{i-1} - x_{i+1}) / 2 (the shoelace formula)."""
+        for tab, rows, off in zip(self._area_tables(), (sel < self.ntri, sel >= self.ntri), (0, self.ntri)):
+            if tab is None:
+                continue
             r = np.flatnonzero(rows)
             if not r.size:
                 continue
-            v = cells[sel[r] - (0 if cells is self.lt else self.ntri)]  # (r, k) local slots
-            nx, pv = Y[np.roll(v, -1, axis=1)], Y[np.roll(v, 1, axis=1)]
-            # a cell's corners are distinct: one value per entry
-            G[r[:, None], v, 0] = (0.5 * self.S) * (nx[..., 1] - pv[..., 1])
-            G[r[:, None], v, 1] = (0.5 * self.S) * (pv[..., 0] - nx[..., 0])
-        return G[:, : self.n]
+            s = sel[r] - off
+            nx, pv, col = Y[tab[0][s]], Y[tab[1][s]], tab[2][s]
+            # a cell's corners are distinct: one value per moving entry
+            G[r[:, None], col] = (0.5 * self.S) * (nx[..., 1] - pv[..., 1])
+            G[r[:, None], col + 1] = (0.5 * self.S) * (pv[..., 0] - nx[..., 0])
+
+    def area_gradients(self, sel, Y):
+        """(c, n, 2): gradient of ``S`` x the area of the cells ``sel`` (indices in area order: triangles,
+        then quads) at local positions Y (n + m, 2) with respect to the moving nodes (:meth:`area_rows`)."""
+        G = np.zeros((sel.shape[0], 2 * self.n + 2))
+        self.area_rows(sel, Y, G)
+        return G[:, : 2 * self.n].reshape(sel.shape[0], self.n, 2)
 
 
 _AR = np.arange(256)[:, None]  # row indices of a gradient matrix (grown by _rows)
@@ -261,9 +283,12 @@ def _direction(patch: _Patch, st: dict):
     if last is None or key != last:
         nc = int(active.searchsorted(C))
         ac, cl = active[:nc], active[nc:] - C
-        G = patch.gradient_rows(ac, st["g6"][ac])
+        # the corners' rows then the size terms' in one array (gradient_rows and area_gradients' values)
+        G = np.zeros((active.shape[0], 2 * patch.n + 2))
+        G[_rows(nc), patch._cols6()[ac]] = st["g6"][ac]
         if cl.size:
-            G = np.concatenate([G, patch.area_gradients(cl, st["Y"]).reshape(cl.shape[0], 2 * patch.n)])
+            patch.area_rows(cl, st["Y"], G[nc:])
+        G = np.ascontiguousarray(G[:, : 2 * patch.n])
         corral = st["corral"]
         at = active.searchsorted(corral)
         start = at[active[np.minimum(at, active.shape[0] - 1)] == corral].tolist()
@@ -314,6 +339,9 @@ class _Batch:
         self.cpatch = np.repeat(np.arange(len(patches)), C)  # the patch of every corner
         self.cst_end = self.cst[1:].tolist()
         self.cst = self.cst[:-1]
+        self.crange = [np.arange(a, b) for a, b in zip(self.cst.tolist(), self.cst_end)]  # corners of patch i
+        # triangles only: the areas in patch order straight from the cross products (a[:, aord] of 0.5 cr[:, tri0])
+        self.a_idx = None if self.any_quad else self.tri0[self.aord]
         self.S = patches[0].S  # one size scale for every patch of a pass
 
     def score(self, Y, lo, hi):
@@ -329,13 +357,14 @@ class _Batch:
         dot = ux * wx + uy * wy
         q = self._band_quality(cr, dot)
         ok = np.minimum.reduceat(cr, self.cst, axis=1) > 0  # (cr > 0).all() per patch, NaN included
-        a = 0.5 * cr[:, self.tri0]
         if self.any_quad:
+            a = 0.5 * cr[:, self.tri0]
             c = np.take(z, self.lq, axis=1)
             d02, d13 = c[..., 2] - c[..., 0], c[..., 3] - c[..., 1]
             q2 = d02.real * d13.imag - d02.imag * d13.real  # _area2's diagonal formula
-            a = np.concatenate([a, 0.5 * q2], axis=1)
-        a = a[:, self.aord]
+            a = np.concatenate([a, 0.5 * q2], axis=1)[:, self.aord]
+        else:
+            a = 0.5 * cr[:, self.a_idx]
         amin = np.minimum.reduceat(a, self.ast, axis=1)
         ok &= (amin >= lo) & (np.maximum.reduceat(a, self.ast, axis=1) <= hi)
         if self.floor is not None:
@@ -360,7 +389,7 @@ class _Batch:
 
     def corner_range(self, i):
         """The corner indices of patch i."""
-        return np.arange(self.cst[i], self.cst_end[i])
+        return self.crange[i]
 
     def _band_quality(self, cr, dot):
         """(K, corners): the corners' quality (``_Patch.corners``' ``arctan2`` and quad fold, the same
@@ -460,7 +489,7 @@ def _ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
                     del states[i]
         if taken:  # the new corners of the patches that moved, in one gather (the same values)
             cols = np.concatenate([batch.corner_range(i) for i, _, _ in taken])
-            rows = np.concatenate([np.full(batch.cst_end[i] - batch.cst[i], k) for i, k, _ in taken])
+            rows = np.repeat([k for _, k, _ in taken], [batch.crange[i].shape[0] for i, _, _ in taken])
             qa, tha = batch.quality(crs[rows, cols], dots[rows, cols], cols)
             ua = us[rows, cols, None].view(np.float64)
             wa = ws[rows, cols, None].view(np.float64)
