@@ -12,6 +12,7 @@ Pure numpy on a few dozen nodes, the same for the numpy and the compiled kernels
 
 from __future__ import annotations
 
+import bisect
 import math
 
 import numpy as np
@@ -49,6 +50,17 @@ def _area2(c):
         c[..., 3, 0] - c[..., 1, 0])
 
 
+def _setdiff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.setdiff1d(a, b)`` (the sorted unique values of ``a`` not in ``b``) by a binary search in the
+    sorted ``b``: no lookup table over the range of the node ids, which ``np.isin`` may build (a third of
+    a patch's set-up on 100k triangles)."""
+    u = np.unique(a)
+    if not b.size:
+        return u
+    sb = np.sort(b)
+    return u[sb[np.minimum(sb.searchsorted(u), sb.shape[0] - 1)] != u]
+
+
 class _Patch:
     """One patch: its moving nodes and the corners of every cell incident to them, as local indices.
 
@@ -68,7 +80,7 @@ class _Patch:
         tri = topo.tri[cell_ids[cell_ids < nt]]
         quad = topo.quad[cell_ids[cell_ids >= nt] - nt]
         allv = np.concatenate([tri.ravel(), quad.ravel()]).astype(np.intp)
-        ext = np.setdiff1d(allv, nodes)
+        ext = _setdiff(allv, nodes)
         local = np.concatenate([nodes, ext])
         order = np.argsort(local, kind="stable")
         ranked = local[order]
@@ -197,20 +209,18 @@ class _Patch:
 
     def area_rows(self, sel, Y, G):
         """Into the rows G (c, 2 n + 2; zeros): the gradient of ``S`` x the area of the cells ``sel``
-        (indices in area order: triangles, then quads) at local positions Y (n + m, 2) with respect to
-        the moving nodes' (x, y) (the 2 spare columns take the other corners').  Corner i of a polygon
-        moves its area by (y_{i+1} - y_{i-1}, x_{i-1} - x_{i+1}) / 2 (the shoelace formula)."""
-        for tab, rows, off in zip(self._area_tables(), (sel < self.ntri, sel >= self.ntri), (0, self.ntri)):
-            if tab is None:
+        (ascending indices in area order: triangles, then quads) at local positions Y (n + m, 2) with
+        respect to the moving nodes' (x, y) (the 2 spare columns take the other corners').  Corner i of
+        a polygon moves its area by (y_{i+1} - y_{i-1}, x_{i-1} - x_{i+1}) / 2 (the shoelace formula)."""
+        k = int(sel.searchsorted(self.ntri))
+        for tab, s, R in zip(self._area_tables(), (sel[:k], sel[k:] - self.ntri), (G[:k], G[k:])):
+            if tab is None or not s.size:
                 continue
-            r = np.flatnonzero(rows)
-            if not r.size:
-                continue
-            s = sel[r] - off
             nx, pv, col = Y[tab[0][s]], Y[tab[1][s]], tab[2][s]
+            r = _rows(s.shape[0])
             # a cell's corners are distinct: one value per moving entry
-            G[r[:, None], col] = (0.5 * self.S) * (nx[..., 1] - pv[..., 1])
-            G[r[:, None], col + 1] = (0.5 * self.S) * (pv[..., 0] - nx[..., 0])
+            R[r, col] = (0.5 * self.S) * (nx[..., 1] - pv[..., 1])
+            R[r, col + 1] = (0.5 * self.S) * (pv[..., 0] - nx[..., 0])
 
     def area_gradients(self, sel, Y):
         """(c, n, 2): gradient of ``S`` x the area of the cells ``sel`` (indices in area order: triangles,
@@ -237,7 +247,7 @@ def _corner_gradients(quad, th, u, w) -> np.ndarray:
     / |u|^2, minus their sum; a quad corner above 90 deg (``quad``: which are quad corners, or None)
     the opposite: its quality is 180 deg - angle).  Elementwise: every corner's values are those of
     that corner alone."""
-    ux, uy, wx, wy = u[:, 0], u[:, 1], w[:, 0], w[:, 1]
+    ux, uy, wx, wy = (u[0], u[1], w[0], w[1]) if isinstance(u, (tuple, list)) else (u[:, 0], u[:, 1], w[:, 0], w[:, 1])
     g = np.empty((th.shape[0], 6))
     sw, su = wx * wx + wy * wy, ux * ux + uy * uy  # (the two-term sums (w * w).sum(1), in that order)
     np.divide(-wy, sw, out=g[:, 0])
@@ -281,7 +291,7 @@ def _direction(patch: _Patch, st: dict):
     last = st["last"]
     key = active.tolist()
     if last is None or key != last:
-        nc = int(active.searchsorted(C))
+        nc = bisect.bisect_left(key, C)  # (active.searchsorted(C))
         ac, cl = active[:nc], active[nc:] - C
         # the corners' rows then the size terms' in one array (gradient_rows and area_gradients' values)
         G = np.zeros((active.shape[0], 2 * patch.n + 2))
@@ -289,12 +299,13 @@ def _direction(patch: _Patch, st: dict):
         if cl.size:
             patch.area_rows(cl, st["Y"], G[nc:])
         G = np.ascontiguousarray(G[:, : 2 * patch.n])
-        corral = st["corral"]
-        at = active.searchsorted(corral)
-        start = at[active[np.minimum(at, active.shape[0] - 1)] == corral].tolist()
+        # the previous corral's rows that are still active, at their places in the active set (a few rows:
+        # Python lists)
+        where = {c: i for i, c in enumerate(key)}
+        start = [where[c] for c in st["corral"] if c in where]
         # (ascend_all ignores floating-point errors: a singular corral system gives NaN, handled there)
         d, S = (G[0].copy(), [0]) if G.shape[0] == 1 else _wolfe(G, G.shape[0], start)
-        st["corral"] = active[S]
+        st["corral"] = [key[i] for i in S]
         st["d"], st["nd"] = d, math.sqrt(float(d @ d))
         st["last"] = key
     return st["d"], st["nd"]
@@ -347,19 +358,23 @@ class _Batch:
     def score(self, Y, lo, hi):
         """(K, patches) minimum corner quality at Y (K, all local nodes, 2), -inf where a patch is invalid
         or breaks a limit; and the corners (K, all corners)."""
-        # x + iy: one gather fetches both, complex subtraction is the two real ones (the same bits)
-        z = Y.view(np.complex128)[..., 0]
-        v = np.take(z, self.lv, axis=1)
-        u = np.take(z, self.ln, axis=1) - v
-        w = np.take(z, self.lp, axis=1) - v
-        ux, uy, wx, wy = u.real, u.imag, w.real, w.imag
+        # the x and the y planes apart, so that every operation below runs on contiguous rows
+        X, Z = np.ascontiguousarray(Y[..., 0]), np.ascontiguousarray(Y[..., 1])
+        vx, vy = np.take(X, self.lv, axis=1), np.take(Z, self.lv, axis=1)
+        ux, uy = np.take(X, self.ln, axis=1), np.take(Z, self.ln, axis=1)
+        wx, wy = np.take(X, self.lp, axis=1), np.take(Z, self.lp, axis=1)
+        ux -= vx
+        uy -= vy
+        wx -= vx
+        wy -= vy
+        u, w = (ux, uy), (wx, wy)
         cr = ux * wy - uy * wx
         dot = ux * wx + uy * wy
         q = self._band_quality(cr, dot)
         ok = np.minimum.reduceat(cr, self.cst, axis=1) > 0  # (cr > 0).all() per patch, NaN included
         if self.any_quad:
             a = 0.5 * cr[:, self.tri0]
-            c = np.take(z, self.lq, axis=1)
+            c = np.take(Y.view(np.complex128)[..., 0], self.lq, axis=1)
             d02, d13 = c[..., 2] - c[..., 0], c[..., 3] - c[..., 1]
             q2 = d02.real * d13.imag - d02.imag * d13.real  # _area2's diagonal formula
             a = np.concatenate([a, 0.5 * q2], axis=1)[:, self.aord]
@@ -438,7 +453,7 @@ def _ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
         if np.isfinite(f0):
             h = float(np.mean(np.sqrt((u[0] * u[0]).sum(1))))
             states[i] = dict(lo=lo, hi=hi, f0=f0, h=h, t=0.1 * h, eps=eps, q=q[0], th=th[0], u=u[0], w=w[0],
-                             last=None, corral=np.zeros(0, np.intp), a=a[0], Y=Y[0],
+                             last=None, corral=[], a=a[0], Y=Y[0],
                              g6=_corner_gradients(p.quad if p.any_quad else None, th[0], u[0], w[0]))
     if not states:
         return out
@@ -469,12 +484,15 @@ def _ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
         # 8 if a patch took none of those; a row's scores do not depend on the other rows
         fs, (crs, dots, us, ws, As) = batch.score(Ys[:_FIRST], lo, hi)
         mv = list(moving)
+        mva = np.array(mv) if len(mv) < len(patches) else slice(None)  # (every patch: all columns)
         gain = np.array([states[i]["f0"] for i in mv]) + _GAIN
-        if not np.logical_or.reduce(fs[:, mv] > gain, axis=0).all():
+        up = fs[:, mva] > gain
+        if not np.logical_or.reduce(up, axis=0).all():
             f2, more = batch.score(Ys[_FIRST:], lo, hi)
             fs = np.concatenate((fs, f2))
-            crs, dots, us, ws, As = (np.concatenate((x, y)) for x, y in zip((crs, dots, us, ws, As), more))
-        up = fs[:, mv] > gain
+            up = np.concatenate((up, f2[:, mva] > gain))
+            crs, dots, As = (np.concatenate((x, y)) for x, y in zip((crs, dots, As), more[:2] + more[4:]))
+            us, ws = (tuple(np.concatenate((x, y)) for x, y in zip(p, r)) for p, r in zip((us, ws), more[2:4]))
         first, some = up.argmax(axis=0).tolist(), np.logical_or.reduce(up, axis=0).tolist()
         taken = []
         for i, k, has in zip(mv, first, some):
@@ -488,12 +506,22 @@ def _ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
                 if st["eps"] < _EPS_MIN:
                     del states[i]
         if taken:  # the new corners of the patches that moved, in one gather (the same values)
-            cols = np.concatenate([batch.corner_range(i) for i, _, _ in taken])
-            rows = np.repeat([k for _, k, _ in taken], [batch.crange[i].shape[0] for i, _, _ in taken])
-            qa, tha = batch.quality(crs[rows, cols], dots[rows, cols], cols)
-            ua = us[rows, cols, None].view(np.float64)
-            wa = ws[rows, cols, None].view(np.float64)
-            ga = _corner_gradients(batch.quad[cols] if batch.any_quad else None, tha, ua, wa)
+            ks = {k for _, k, _ in taken}
+            arrs = (crs, dots) + us + ws  # (cross, dot, ux, uy, wx, wy)
+            if len(ks) == 1:  # (usually: every patch took its longest step) one row of the trial steps
+                k = ks.pop()
+                if len(taken) == len(patches):
+                    cols = slice(None)
+                    got = [x[k] for x in arrs]
+                else:
+                    cols = np.concatenate([batch.corner_range(i) for i, _, _ in taken])
+                    got = [x[k].take(cols) for x in arrs]
+            else:
+                cols = np.concatenate([batch.corner_range(i) for i, _, _ in taken])
+                rows = np.repeat([k for _, k, _ in taken], [batch.crange[i].shape[0] for i, _, _ in taken])
+                got = [x[rows, cols] for x in arrs]
+            qa, tha = batch.quality(got[0], got[1], cols)
+            ga = _corner_gradients(batch.quad[cols] if batch.any_quad else None, tha, got[2:4], got[4:6])
             s0 = 0
             for i, k, steps in taken:
                 st = states[i]
@@ -501,8 +529,8 @@ def _ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
                 s1 = s0 + batch.cst_end[i] - batch.cst[i]
                 out[i] = Ys[k, o:o + n]
                 Ycur[o:o + n] = out[i]
-                st["f0"], st["t"] = float(fs[k, i]), min(2.0 * steps[k], 0.5 * st["h"])
-                st["q"], st["th"], st["u"], st["w"], st["g6"] = qa[s0:s1], tha[s0:s1], ua[s0:s1], wa[s0:s1], ga[s0:s1]
+                st["f0"], st["t"] = float(fs[k, i]), min(2.0 * float(steps[k]), 0.5 * st["h"])
+                st["q"], st["g6"] = qa[s0:s1], ga[s0:s1]
                 if patches[i].S is not None:  # the areas and positions the size terms' gradients need
                     a0 = batch.ast[i]
                     st["a"] = As[k, a0:a0 + patches[i].ntri + patches[i].nq]
