@@ -216,7 +216,7 @@ class _Patch:
         for tab, s, R in zip(self._area_tables(), (sel[:k], sel[k:] - self.ntri), (G[:k], G[k:])):
             if tab is None or not s.size:
                 continue
-            nx, pv, col = Y[tab[0][s]], Y[tab[1][s]], tab[2][s]
+            nx, pv, col = Y.take(tab[0].take(s, axis=0), axis=0), Y.take(tab[1].take(s, axis=0), axis=0), tab[2].take(s, axis=0)
             r = _rows(s.shape[0])
             # a cell's corners are distinct: one value per moving entry
             R[r, col] = (0.5 * self.S) * (nx[..., 1] - pv[..., 1])
@@ -295,7 +295,7 @@ def _direction(patch: _Patch, st: dict):
         ac, cl = active[:nc], active[nc:] - C
         # the corners' rows then the size terms' in one array (gradient_rows and area_gradients' values)
         G = np.zeros((active.shape[0], 2 * patch.n + 2))
-        G[_rows(nc), patch._cols6()[ac]] = st["g6"][ac]
+        G[_rows(nc), patch._cols6().take(ac, axis=0)] = st["g6"].take(ac, axis=0)
         if cl.size:
             patch.area_rows(cl, st["Y"], G[nc:])
         G = np.ascontiguousarray(G[:, : 2 * patch.n])
@@ -348,6 +348,7 @@ class _Batch:
             pos = np.concatenate([fst[i] + 1 + np.arange(f[0].shape[0]) for i, f in rows])
             self.floor = (fc, fq, qc, fa, f1, f2, pos, fst, int(cnt.sum()) + len(patches))
         self.cpatch = np.repeat(np.arange(len(patches)), C)  # the patch of every corner
+        self.ccount = C  # corners per patch
         self.cst_end = self.cst[1:].tolist()
         self.cst = self.cst[:-1]
         self.crange = [np.arange(a, b) for a, b in zip(self.cst.tolist(), self.cst_end)]  # corners of patch i
@@ -379,16 +380,16 @@ class _Batch:
             q2 = d02.real * d13.imag - d02.imag * d13.real  # _area2's diagonal formula
             a = np.concatenate([a, 0.5 * q2], axis=1)[:, self.aord]
         else:
-            a = 0.5 * cr[:, self.a_idx]
+            a = 0.5 * np.take(cr, self.a_idx, axis=1)
         amin = np.minimum.reduceat(a, self.ast, axis=1)
         ok &= (amin >= lo) & (np.maximum.reduceat(a, self.ast, axis=1) <= hi)
         if self.floor is not None:
             fc, fq, qc, fa, f1, f2, pos, fst, width = self.floor
-            a2 = cr[:, fc]
+            a2 = np.take(cr, fc, axis=1)
             if self.any_quad:
                 a2 = np.where(fq, q2[:, qc], a2)
-            e1 = np.hypot(ux[:, fc], uy[:, fc])
-            e2 = np.hypot(wx[:, fc], wy[:, fc])
+            e1 = np.hypot(np.take(ux, fc, axis=1), np.take(uy, fc, axis=1))
+            e2 = np.hypot(np.take(wx, fc, axis=1), np.take(wy, fc, axis=1))
             bad = np.zeros((Y.shape[0], width), bool)
             bad[:, pos] = ~((a2 >= fa) & (e1 >= f1) & (e2 >= f2))
             ok &= ~np.logical_or.reduceat(bad, fst, axis=1)
@@ -422,9 +423,10 @@ class _Batch:
             p = np.where(self.quad, np.abs(p), p)
         pm = np.maximum.reduceat(p, self.cst, axis=1)
         thr = pm - 1e-8 * (1.0 + pm * pm)
-        r, c = (p >= thr[:, self.cpatch]).nonzero() if self.finite(pm) else (~(p < thr[:, self.cpatch])).nonzero()
+        tc = thr.repeat(self.ccount, axis=1)  # (thr[:, cpatch]: each patch's threshold at its corners)
+        at = np.flatnonzero(p >= tc if self.finite(pm) else ~(p < tc))  # (flat indices, row by row)
         q = np.full(cr.shape, np.inf)
-        q[r, c] = self.quality(cr[r, c], dot[r, c], c)[0]
+        q.ravel()[at] = self.quality(cr.ravel().take(at), dot.ravel().take(at), at % cr.shape[1])[0]
         return q
 
     def quality(self, cr, dot, cols):
