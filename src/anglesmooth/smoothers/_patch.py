@@ -376,7 +376,7 @@ def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, are
     S = None
     if size and floors is not None and floors.area_median > 0:
         S = np.radians(below) / (size * floors.area_median)
-    used_cells = np.zeros(nt + topo.n_quad, bool)
+    used_cells = set()  # the cells of the patches so far (a few hundred: no per-cell array)
     out = P.copy()
     done = 0
     patches, patch_cells = [], []
@@ -389,15 +389,16 @@ def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, are
         if not nodes.size:
             continue
         done += 1
-        if used_cells[c]:  # the cell is one of its own patch's (a corner of it moves): shared, skipped
+        if c in used_cells:  # the cell is one of its own patch's (a corner of it moves): shared, skipped
             continue
         for _ in range(rings):
             nb = _ring_of(topo, nodes)
             nodes = np.union1d(nodes, nb[~blocked[nb]])
         ids = np.unique(_csr(topo, nodes))
-        if used_cells[ids].any():
+        idl = ids.tolist()
+        if not used_cells.isdisjoint(idl):
             continue
-        used_cells[ids] = True
+        used_cells.update(idl)
         patches.append(_Patch(P, topo, nodes, ids, floors, S))
         patch_cells.append(ids)
     # the patches share no cell, so none has another's moving nodes among its cells: all at once

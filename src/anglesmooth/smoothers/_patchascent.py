@@ -358,45 +358,50 @@ class _Batch:
 
     def score(self, Y, lo, hi):
         """(K, patches) minimum corner quality at Y (K, all local nodes, 2), -inf where a patch is invalid
-        or breaks a limit; and the corners (K, all corners)."""
-        # the x and the y planes apart, so that every operation below runs on contiguous rows
-        X, Z = np.ascontiguousarray(Y[..., 0]), np.ascontiguousarray(Y[..., 1])
-        vx, vy = np.take(X, self.lv, axis=1), np.take(Z, self.lv, axis=1)
-        ux, uy = np.take(X, self.ln, axis=1), np.take(Z, self.ln, axis=1)
-        wx, wy = np.take(X, self.lp, axis=1), np.take(Z, self.lp, axis=1)
+        or breaks a limit; and the corners (:meth:`score_planes`)."""
+        return self.score_planes(np.ascontiguousarray(Y[..., 0].T), np.ascontiguousarray(Y[..., 1].T), lo, hi)
+
+    def score_planes(self, XT, ZT, lo, hi):
+        """:meth:`score` at the local positions' x and y planes XT, ZT (all local nodes, K; C-contiguous):
+        (K, patches) and the corners (cross, dot, (ux, uy), (wx, wy), areas), each (corners or cells, K).
+
+        Node-major planes: every gather takes whole rows of K trial steps (a gather along the trial axis
+        copied one number at a time: most of a score's cost); the same operations on every element."""
+        vx, vy = XT.take(self.lv, axis=0), ZT.take(self.lv, axis=0)
+        ux, uy = XT.take(self.ln, axis=0), ZT.take(self.ln, axis=0)
+        wx, wy = XT.take(self.lp, axis=0), ZT.take(self.lp, axis=0)
         ux -= vx
         uy -= vy
         wx -= vx
         wy -= vy
-        u, w = (ux, uy), (wx, wy)
         cr = ux * wy - uy * wx
         dot = ux * wx + uy * wy
         q = self._band_quality(cr, dot)
-        ok = np.minimum.reduceat(cr, self.cst, axis=1) > 0  # (cr > 0).all() per patch, NaN included
+        ok = np.minimum.reduceat(cr, self.cst, axis=0) > 0  # (cr > 0).all() per patch, NaN included
         if self.any_quad:
-            a = 0.5 * cr[:, self.tri0]
-            c = np.take(Y.view(np.complex128)[..., 0], self.lq, axis=1)
-            d02, d13 = c[..., 2] - c[..., 0], c[..., 3] - c[..., 1]
-            q2 = d02.real * d13.imag - d02.imag * d13.real  # _area2's diagonal formula
-            a = np.concatenate([a, 0.5 * q2], axis=1)[:, self.aord]
+            a = 0.5 * cr.take(self.tri0, axis=0)
+            cx, cz = XT.take(self.lq, axis=0), ZT.take(self.lq, axis=0)  # (quads, 4, K)
+            d02x, d02y, d13x, d13y = cx[:, 2] - cx[:, 0], cz[:, 2] - cz[:, 0], cx[:, 3] - cx[:, 1], cz[:, 3] - cz[:, 1]
+            q2 = d02x * d13y - d02y * d13x  # _area2's diagonal formula
+            a = np.concatenate([a, 0.5 * q2], axis=0).take(self.aord, axis=0)
         else:
-            a = 0.5 * np.take(cr, self.a_idx, axis=1)
-        amin = np.minimum.reduceat(a, self.ast, axis=1)
-        ok &= (amin >= lo) & (np.maximum.reduceat(a, self.ast, axis=1) <= hi)
+            a = 0.5 * cr.take(self.a_idx, axis=0)
+        amin = np.minimum.reduceat(a, self.ast, axis=0)
+        ok &= (amin >= np.reshape(lo, (-1, 1))) & (np.maximum.reduceat(a, self.ast, axis=0) <= np.reshape(hi, (-1, 1)))
         if self.floor is not None:
             fc, fq, qc, fa, f1, f2, pos, fst, width = self.floor
-            a2 = np.take(cr, fc, axis=1)
+            a2 = cr.take(fc, axis=0)
             if self.any_quad:
-                a2 = np.where(fq, q2[:, qc], a2)
-            e1 = np.hypot(np.take(ux, fc, axis=1), np.take(uy, fc, axis=1))
-            e2 = np.hypot(np.take(wx, fc, axis=1), np.take(wy, fc, axis=1))
-            bad = np.zeros((Y.shape[0], width), bool)
-            bad[:, pos] = ~((a2 >= fa) & (e1 >= f1) & (e2 >= f2))
-            ok &= ~np.logical_or.reduceat(bad, fst, axis=1)
-        f = np.minimum.reduceat(q, self.cst, axis=1)
+                a2 = np.where(fq[:, None], q2.take(qc, axis=0), a2)
+            e1 = np.hypot(ux.take(fc, axis=0), uy.take(fc, axis=0))
+            e2 = np.hypot(wx.take(fc, axis=0), wy.take(fc, axis=0))
+            bad = np.zeros((width, XT.shape[1]), bool)
+            bad[pos] = ~((a2 >= fa[:, None]) & (e1 >= f1[:, None]) & (e2 >= f2[:, None]))
+            ok &= ~np.logical_or.reduceat(bad, fst, axis=0)
+        f = np.minimum.reduceat(q, self.cst, axis=0)
         if self.S is not None:
             f = np.minimum(f, self.S * amin)
-        return np.where(ok, f, -np.inf), (cr, dot, u, w, a)
+        return np.where(ok, f, -np.inf).T, (cr, dot, (ux, uy), (wx, wy), a)
 
     @staticmethod
     def finite(pm) -> bool:
@@ -408,7 +413,7 @@ class _Batch:
         return self.crange[i]
 
     def _band_quality(self, cr, dot):
-        """(K, corners): the corners' quality (``_Patch.corners``' ``arctan2`` and quad fold, the same
+        """(corners, K): the corners' quality (``_Patch.corners``' ``arctan2`` and quad fold, the same
         bits) where it may be its patch's minimum, +inf elsewhere: the patch's minimum, exactly.
 
         A corner's quality is a decreasing function of p = dot / cr (its cotangent; quads: |dot| / cr)
@@ -417,22 +422,35 @@ class _Batch:
         is above the minimum's by more than 1e-9 radians, far above the round-off of either; a NaN or
         infinite p (or an overflowing pmax^2) keeps every corner of the patch."""
         if cr.size <= _BAND_MIN:  # a few corners: every arctan2 costs less than the band's operations
-            return self.quality(cr, dot, slice(None))[0]
+            return self.quality(cr, dot, (slice(None), None))[0]
         p = dot / cr  # (ascend_all ignores floating-point errors: cr = 0 or an overflow, handled here)
         if self.any_quad:
-            p = np.where(self.quad, np.abs(p), p)
-        pm = np.maximum.reduceat(p, self.cst, axis=1)
+            p = np.where(self.quad[:, None], np.abs(p), p)
+        pm = np.maximum.reduceat(p, self.cst, axis=0)
         thr = pm - 1e-8 * (1.0 + pm * pm)
-        tc = thr.repeat(self.ccount, axis=1)  # (thr[:, cpatch]: each patch's threshold at its corners)
-        at = np.flatnonzero(p >= tc if self.finite(pm) else ~(p < tc))  # (flat indices, row by row)
+        tc = thr.repeat(self.ccount, axis=0)  # (thr[cpatch]: each patch's threshold at its corners)
+        at = np.flatnonzero(p >= tc if self.finite(pm) else ~(p < tc))  # (flat indices, corner by corner)
         q = np.full(cr.shape, np.inf)
-        q.ravel()[at] = self.quality(cr.ravel().take(at), dot.ravel().take(at), at % cr.shape[1])[0]
+        q.ravel()[at] = self.quality(cr.ravel().take(at), dot.ravel().take(at), at // cr.shape[1])[0]
         return q
 
     def quality(self, cr, dot, cols):
         """(quality, angle) of corners ``cols`` with cross and dot products cr, dot (``_Patch.corners``)."""
         th = np.arctan2(cr, dot)
         return (np.where(self.quad[cols], np.minimum(th, np.pi - th), th) if self.any_quad else th), th
+
+
+def _trial_planes(Ycur, batch, patches, out, moving, sl):
+    """The trial positions of the steps ``sl`` as node-major x and y planes (all local nodes, K): every
+    patch at its current positions ``Ycur`` (all local nodes, 2), the moving ones' nodes at
+    x + step d (``moving``: patch -> (steps, unit direction (n, 2)))."""
+    K = len(range(*sl.indices(_HALVINGS.shape[0])))
+    XT, ZT = np.repeat(Ycur[:, 0:1], K, axis=1), np.repeat(Ycur[:, 1:2], K, axis=1)
+    for i, (steps, dn) in moving.items():
+        o, n, s = batch.off[i], patches[i].n, steps[sl][None, :]
+        XT[o:o + n] = out[i][:, 0:1] + dn[:, 0:1] * s
+        ZT[o:o + n] = out[i][:, 1:2] + dn[:, 1:2] * s
+    return XT, ZT
 
 
 def ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
@@ -478,23 +496,21 @@ def _ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
             if not states:
                 break
             continue
-        Ys = np.repeat(Ycur[None], 8, axis=0)
-        for i, (steps, dn) in moving.items():
-            o = batch.off[i]
-            Ys[:, o:o + patches[i].n] = out[i][None] + steps[:, None, None] * dn[None]
+        planes = [_trial_planes(Ycur, batch, patches, out, moving, slice(0, _FIRST))]
         # the longest steps first (most patches take one of them: 100k random triangles, 9 in 10), all
-        # 8 if a patch took none of those; a row's scores do not depend on the other rows
-        fs, (crs, dots, us, ws, As) = batch.score(Ys[:_FIRST], lo, hi)
+        # 8 if a patch took none of those; a step's scores do not depend on the other steps'
+        fs, (crs, dots, us, ws, As) = batch.score_planes(*planes[0], lo, hi)
         mv = list(moving)
         mva = np.array(mv) if len(mv) < len(patches) else slice(None)  # (every patch: all columns)
         gain = np.array([states[i]["f0"] for i in mv]) + _GAIN
         up = fs[:, mva] > gain
         if not np.logical_or.reduce(up, axis=0).all():
-            f2, more = batch.score(Ys[_FIRST:], lo, hi)
+            planes.append(_trial_planes(Ycur, batch, patches, out, moving, slice(_FIRST, None)))
+            f2, more = batch.score_planes(*planes[1], lo, hi)
             fs = np.concatenate((fs, f2))
             up = np.concatenate((up, f2[:, mva] > gain))
-            crs, dots, As = (np.concatenate((x, y)) for x, y in zip((crs, dots, As), more[:2] + more[4:]))
-            us, ws = (tuple(np.concatenate((x, y)) for x, y in zip(p, r)) for p, r in zip((us, ws), more[2:4]))
+            crs, dots, As = (np.concatenate((x, y), axis=1) for x, y in zip((crs, dots, As), more[:2] + more[4:]))
+            us, ws = (tuple(np.concatenate((x, y), axis=1) for x, y in zip(p, r)) for p, r in zip((us, ws), more[2:4]))
         first, some = up.argmax(axis=0).tolist(), np.logical_or.reduce(up, axis=0).tolist()
         taken = []
         for i, k, has in zip(mv, first, some):
@@ -509,19 +525,19 @@ def _ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
                     del states[i]
         if taken:  # the new corners of the patches that moved, in one gather (the same values)
             ks = {k for _, k, _ in taken}
-            arrs = (crs, dots) + us + ws  # (cross, dot, ux, uy, wx, wy)
-            if len(ks) == 1:  # (usually: every patch took its longest step) one row of the trial steps
+            arrs = (crs, dots) + us + ws  # (cross, dot, ux, uy, wx, wy), (corners, K)
+            if len(ks) == 1:  # (usually: every patch took its longest step) one trial step's column
                 k = ks.pop()
                 if len(taken) == len(patches):
                     cols = slice(None)
-                    got = [x[k] for x in arrs]
+                    got = [np.ascontiguousarray(x[:, k]) for x in arrs]
                 else:
                     cols = np.concatenate([batch.corner_range(i) for i, _, _ in taken])
-                    got = [x[k].take(cols) for x in arrs]
+                    got = [x[:, k].take(cols) for x in arrs]
             else:
                 cols = np.concatenate([batch.corner_range(i) for i, _, _ in taken])
                 rows = np.repeat([k for _, k, _ in taken], [batch.crange[i].shape[0] for i, _, _ in taken])
-                got = [x[rows, cols] for x in arrs]
+                got = [x[cols, rows] for x in arrs]
             qa, tha = batch.quality(got[0], got[1], cols)
             ga = _corner_gradients(batch.quad[cols] if batch.any_quad else None, tha, got[2:4], got[4:6])
             s0 = 0
@@ -529,13 +545,14 @@ def _ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
                 st = states[i]
                 o, n = batch.off[i], patches[i].n
                 s1 = s0 + batch.cst_end[i] - batch.cst[i]
-                out[i] = Ys[k, o:o + n]
+                XT, ZT = planes[k // _FIRST]
+                out[i] = np.stack((XT[o:o + n, k % _FIRST], ZT[o:o + n, k % _FIRST]), axis=1)
                 Ycur[o:o + n] = out[i]
                 st["f0"], st["t"] = float(fs[k, i]), min(2.0 * float(steps[k]), 0.5 * st["h"])
                 st["q"], st["g6"] = qa[s0:s1], ga[s0:s1]
                 if patches[i].S is not None:  # the areas and positions the size terms' gradients need
                     a0 = batch.ast[i]
-                    st["a"] = As[k, a0:a0 + patches[i].ntri + patches[i].nq]
+                    st["a"] = As[a0:a0 + patches[i].ntri + patches[i].nq, k].copy()
                     st["Y"] = Ycur[o:batch.off[i + 1]].copy()
                 st["last"] = None
                 s0 = s1
