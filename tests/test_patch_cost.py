@@ -89,3 +89,20 @@ def test_stage5_same_bits_with_either_kernel(monkeypatch, name):
     assert np.abs(a - p).max() > 0  # some patch moved
     np.testing.assert_array_equal(_bits(a), _bits(b))
     assert ra == rb
+
+
+def test_overwrite_moves_the_given_points():
+    """``patch_moves(..., overwrite=True)`` (``angle.step``'s call, on its pass result): the same numbers as
+    a copy, in the array given."""
+    mesh = MESHES["mixed"]()
+    topo = build_topology(mesh)
+    floors = input_floors(np.array(mesh.points), topo)
+    from anglesmooth import smooth
+
+    p = smooth(mesh, "angle", 2, topology=topo, patch_cells=0).points
+    want, rw = _patch.patch_moves(p, topo, floors, with_range=True)
+    given = np.array(p)
+    got, rg = _patch.patch_moves(given, topo, floors, with_range=True, overwrite=True)
+    assert got is given and np.abs(want - p).max() > 0
+    np.testing.assert_array_equal(_bits(got), _bits(want))
+    assert rg == rw

@@ -331,15 +331,18 @@ def patch_moves(
     area_limits: tuple[float, float] | None = None,
     size: float | None = SIZE,
     with_range: bool = False,
+    overwrite: bool = False,
 ):
     """The points with the patches of the worst cells moved (see the module docstring).
 
     ``size``: a cell of ``size`` x the input's median cell area (``floors.area_median``) counts in the
     patch's minimum like a corner of ``below`` degrees, smaller cells proportionally less (None, or no
     floors: angles only).  ``with_range``: (points, the (smallest, largest) signed cell area at them,
-    :func:`._fastcalls.area_limits`' numbers, or None where the compiled screen did not give it)."""
+    :func:`._fastcalls.area_limits`' numbers, or None where the compiled screen did not give it).
+    ``overwrite``: the patches' nodes move in ``points`` itself when it is a float64 array (one the caller
+    gives away: ``angle.step``'s pass result; no copy of every point, 16 MB at 1M triangles)."""
     P, rng, moved = _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, area_band, area_limits,
-                                 size, with_range)
+                                 size, with_range, overwrite)
     if not with_range:
         return P
     if rng is None or any(r is None for r in rng):
@@ -349,7 +352,8 @@ def patch_moves(
     return P, _area_range_np(P, topo, rng, moved)
 
 
-def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, area_band, area_limits, size, with_range):
+def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, area_band, area_limits, size, with_range,
+                 overwrite=False):
     """:func:`patch_moves`: (points, the screen's per-chunk area ranges or None, the ids of the cells whose
     corners moved, or None)."""
     P = np.asarray(points, dtype=np.float64)
@@ -377,7 +381,7 @@ def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, are
     if size and floors is not None and floors.area_median > 0:
         S = np.radians(below) / (size * floors.area_median)
     used_cells = set()  # the cells of the patches so far (a few hundred: no per-cell array)
-    out = P.copy()
+    out = P if overwrite else P.copy()  # (the patches read P only before any of them moves)
     done = 0
     patches, patch_cells = [], []
     for i in _worst_first(cot, exact, 4 * cells + 16, np.radians(below)):  # at most a few dozen candidates, at most ``cells`` patches
