@@ -60,6 +60,13 @@ machine; stage 5 alone, median ms a pass)
     minimum angle (mean) paper-style triangles 27.37 -> 26.44, mixed 25.34 -> 25.74, quads 30.22 ->
     33.14, graded 20.69 -> 20.75 (seeds 0-9: -0.22 / +0.04 / +0.83 / -0.11: the trajectories differ,
     the mean does not move).
+    Instructions (callgrind, stage 5 alone on the inputs of passes 3-5, M a call; bit-identical): numba
+    67.5 -> 56.7, numpy 74.6 -> 66.1: the compiled screen hands over the kept cells' cotangents (no
+    second gather of some 10 % of the cells: 16 ms a call at 1M triangles, one thread), the min-norm
+    solver's corral as an index array, the batch score on node-major planes with takes instead of fancy
+    indexing.  What is left (numba, 100k): the screen ~11 (a compiled read of every cell, ~100
+    instructions a cell; at 1M triangles ~75 % of stage 5's time, memory-bound), the min-norm solves ~13
+    (LAPACK's dgesv on 5-10 rows: ~15k instructions each), the rest numpy calls on a few hundred corners.
 
 Measured (issue 12; paper-style meshes, 10 default passes, seeds 0 / 1 / 2, minimum angle)
     The prototype, run only after the 10 passes (5 rounds of the 8 worst cells): paper-style mixed
