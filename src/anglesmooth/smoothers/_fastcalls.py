@@ -127,11 +127,11 @@ def screen_cells(points: np.ndarray, cells: np.ndarray, t: float):
     n_chunks = -(-m // rc)
     out = np.empty(m, np.bool_)
     lo, hi, nan = np.empty(n_chunks), np.empty(n_chunks), np.empty(n_chunks, np.bool_)
-    cot = np.empty(m)  # (written at the kept cells only)
+    cot = np.empty(m)  # (the kept cells' cotangents packed from each span's start: only those pages touched)
     fn = _k()._screen_below
     n_threads = _fast.threads(m) if m >= 2 * _fast.MIN_CHUNK else 1
     if n_threads == 1:
-        _run(fn, pts, cells, t, 0, m, out, lo, hi, nan, cot)
+        cuts, kept = [0], [_run(fn, pts, cells, t, 0, m, out, lo, hi, nan, cot)]
     else:
         _fast._prepare(fn, (pts, cells, t, 0, m, out, lo, hi, nan, cot))
         cuts = (np.linspace(0, n_chunks, n_threads + 1).astype(np.int64) * rc).tolist()
@@ -139,14 +139,14 @@ def screen_cells(points: np.ndarray, cells: np.ndarray, t: float):
         pool = _fast._get_pool(n_threads - 1)
         jobs = [pool.submit(fn, pts, cells, t, a, b, out, lo, hi, nan, cot) for a, b in zip(cuts[1:-1], cuts[2:])]
         try:
-            fn(pts, cells, t, cuts[0], cuts[1], out, lo, hi, nan, cot)
+            kept = [fn(pts, cells, t, cuts[0], cuts[1], out, lo, hi, nan, cot)]
         finally:
             for j in jobs:  # wait for the others even when this thread failed (they write the arrays)
                 j.exception()
-        for j in jobs:
-            j.result()
+        kept += [j.result() for j in jobs]
     ids = np.flatnonzero(out)
-    return ids, (lo, hi, nan), cot[ids]
+    parts = [cot[a:a + n] for a, n in zip(cuts, kept)]
+    return ids, (lo, hi, nan), parts[0].copy() if len(parts) == 1 else np.concatenate(parts)
 
 
 def area_range_of(points: np.ndarray, topo, ranges, moved_cells=None):
