@@ -118,7 +118,8 @@ def area_limits(points: np.ndarray, topo):
 def screen_cells(points: np.ndarray, cells: np.ndarray, t: float):
     """Stage 5's screen of ``cells`` (``_patch._maybe_below``'s test with the padded tangent ``t``) fused
     with their area range: (ids of the cells it keeps, ascending; (lo, hi, nan) per chunk of
-    ``_patchkernels.RANGE_CHUNK`` cells, see :func:`area_range_of`).  The cells are cut into spans of
+    ``_patchkernels.RANGE_CHUNK`` cells, see :func:`area_range_of`; the kept cells' largest corner
+    cotangents, ``_patch._cell_cot``'s numbers).  The cells are cut into spans of
     whole chunks that :func:`._fast.threads` threads take (one thread below ``2 * MIN_CHUNK`` cells)."""
     pts = np.ascontiguousarray(points[:, :2], dtype=np.float64)
     m = cells.shape[0]
@@ -126,24 +127,26 @@ def screen_cells(points: np.ndarray, cells: np.ndarray, t: float):
     n_chunks = -(-m // rc)
     out = np.empty(m, np.bool_)
     lo, hi, nan = np.empty(n_chunks), np.empty(n_chunks), np.empty(n_chunks, np.bool_)
+    cot = np.empty(m)  # (the kept cells' cotangents packed from each span's start: only those pages touched)
     fn = _k()._screen_below
     n_threads = _fast.threads(m) if m >= 2 * _fast.MIN_CHUNK else 1
     if n_threads == 1:
-        _run(fn, pts, cells, t, 0, m, out, lo, hi, nan)
+        cuts, kept = [0], [_run(fn, pts, cells, t, 0, m, out, lo, hi, nan, cot)]
     else:
-        _fast._prepare(fn, (pts, cells, t, 0, m, out, lo, hi, nan))
+        _fast._prepare(fn, (pts, cells, t, 0, m, out, lo, hi, nan, cot))
         cuts = (np.linspace(0, n_chunks, n_threads + 1).astype(np.int64) * rc).tolist()
         cuts[-1] = m
         pool = _fast._get_pool(n_threads - 1)
-        jobs = [pool.submit(fn, pts, cells, t, a, b, out, lo, hi, nan) for a, b in zip(cuts[1:-1], cuts[2:])]
+        jobs = [pool.submit(fn, pts, cells, t, a, b, out, lo, hi, nan, cot) for a, b in zip(cuts[1:-1], cuts[2:])]
         try:
-            fn(pts, cells, t, cuts[0], cuts[1], out, lo, hi, nan)
+            kept = [fn(pts, cells, t, cuts[0], cuts[1], out, lo, hi, nan, cot)]
         finally:
             for j in jobs:  # wait for the others even when this thread failed (they write the arrays)
                 j.exception()
-        for j in jobs:
-            j.result()
-    return np.flatnonzero(out), (lo, hi, nan)
+        kept += [j.result() for j in jobs]
+    ids = np.flatnonzero(out)
+    parts = [cot[a:a + n] for a, n in zip(cuts, kept)]
+    return ids, (lo, hi, nan), parts[0].copy() if len(parts) == 1 else np.concatenate(parts)
 
 
 def area_range_of(points: np.ndarray, topo, ranges, moved_cells=None):

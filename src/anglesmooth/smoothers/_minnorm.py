@@ -75,47 +75,60 @@ def _ones(s: int) -> np.ndarray:
         _ONES = np.ones((2 * s, 2 * s))
     return _ONES[:s, :s].copy()
 _INF = float("inf")
+_ZERO_LT = (0.0).__lt__
 
 
 def _positive(mu) -> bool:
     """``np.isfinite(mu).all() and (mu > 0.0).all()`` of a short vector (in Python floats: no ufunc calls)."""
-    return all(0.0 < x < _INF for x in mu.tolist())
+    x = mu.tolist()
+    return all(map(_ZERO_LT, x)) and max(x) < _INF  # (every x > 0: no NaN, so max is the largest)
 
 
 def _wolfe(G, a, S):
     # the same BLAS / LAPACK calls on the same values as the plain loop (every product, dot and solve
-    # below); only the bookkeeping around them is in Python floats and lists (a few rows)
+    # below); only the bookkeeping around them is in Python floats and lists (a few rows), the corral's
+    # rows also in an index array (``ix[:s]``, then the border row a: ``ix[:s + 1]``), so that no take
+    # converts a list
     M = G @ G.T
     B = _ones(a + 1)  # M bordered by ones: the corral's affine system is a submatrix
     B[:a, :a] = M
     B[a, a] = 0.0
     dg = M.diagonal()
     tol = _WOLFE_TOL * float(np.maximum.reduce(dg))
+    ix = np.empty(a + 2, np.intp)
     mu = None
-    if len(S) > 1:
-        ix = S + [a]
-        mu = _solve(B.take(ix, 0).take(ix, 1), _rhs(len(S)))[:-1]
+    s = len(S)
+    if s > 1:
+        ix[:s] = S
+        ix[s] = a
+        c = ix[: s + 1]
+        mu = _solve(B.take(c, 0).take(c, 1), _rhs(s))[:-1]
     if mu is not None and _positive(mu):
         lam = mu
+        S = list(S)
     else:
         S = [int(dg.argmin())]
+        s = 1
+        ix[0] = S[0]
         lam = _ONE
     for _ in range(4 * a + 8):
-        g = M.take(S, 1) @ lam
+        g = M.take(ix[:s], 1) @ lam
         j = int(g.argmin())
-        if float(lam @ g.take(S)) - float(g[j]) <= tol or j in S:
+        if j in S or float(lam @ g.take(ix[:s])) - float(g[j]) <= tol:  # (either way: done)
             break
         S.append(j)
+        ix[s] = j
+        s += 1
         lam = np.concatenate((lam, _ZERO))
-        for _ in range(len(S)):  # minor cycles: at most one row dropped each
-            s = len(S)
-            ix = S + [a]
-            mu = _solve(B.take(ix, 0).take(ix, 1), _rhs(s))[:s]
+        for _ in range(s):  # minor cycles: at most one row dropped each
+            ix[s] = a
+            c = ix[: s + 1]
+            mu = _solve(B.take(c, 0).take(c, 1), _rhs(s))[:s]
             if _positive(mu):
                 lam = mu
                 break
             if not np.isfinite(mu).all():  # singular (round-off): stop where we are
-                return lam @ G.take(S, 0), S
+                return lam @ G.take(ix[:s], 0), S
             neg = np.flatnonzero(mu <= 0.0)
             r = lam[neg] / (lam[neg] - mu[neg])
             i = int(neg[np.argmin(r)])
@@ -123,8 +136,10 @@ def _wolfe(G, a, S):
             lam[i] = 0.0
             keep = lam > 0.0
             S = [x for x, k in zip(S, keep.tolist()) if k]
+            ix[: len(S)] = ix[:s][keep]
+            s = len(S)
             lam = lam[keep]
-    return lam @ G.take(S, 0), S
+    return lam @ G.take(ix[:s], 0), S
 
 
 _ONE = np.ones(1)

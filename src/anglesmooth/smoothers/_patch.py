@@ -60,6 +60,13 @@ machine; stage 5 alone, median ms a pass)
     minimum angle (mean) paper-style triangles 27.37 -> 26.44, mixed 25.34 -> 25.74, quads 30.22 ->
     33.14, graded 20.69 -> 20.75 (seeds 0-9: -0.22 / +0.04 / +0.83 / -0.11: the trajectories differ,
     the mean does not move).
+    Instructions (callgrind, stage 5 alone on the inputs of passes 3-5, M a call; bit-identical): numba
+    67.5 -> 56.7, numpy 74.6 -> 66.1: the compiled screen hands over the kept cells' cotangents (no
+    second gather of some 10 % of the cells: 16 ms a call at 1M triangles, one thread), the min-norm
+    solver's corral as an index array, the batch score on node-major planes with takes instead of fancy
+    indexing.  What is left (numba, 100k): the screen ~11 (a compiled read of every cell, ~100
+    instructions a cell; at 1M triangles ~75 % of stage 5's time, memory-bound), the min-norm solves ~13
+    (LAPACK's dgesv on 5-10 rows: ~15k instructions each), the rest numpy calls on a few hundred corners.
 
 Measured (issue 12; paper-style meshes, 10 default passes, seeds 0 / 1 / 2, minimum angle)
     The prototype, run only after the 10 passes (5 rounds of the 8 worst cells): paper-style mixed
@@ -115,6 +122,13 @@ def _csr(topo: Topology, nodes: np.ndarray) -> np.ndarray:
     return np.concatenate(out)
 
 
+def _ring_of(topo: Topology, nodes: np.ndarray) -> np.ndarray:
+    """The ring neighbours of ``nodes``, node after node (``topo.ring_indices``' slices, concatenated)."""
+    lo, hi = topo.ring_offsets[nodes], topo.ring_offsets[nodes + 1]
+    n = hi - lo
+    return topo.ring_indices[np.repeat(lo - (np.cumsum(n) - n), n) + np.arange(int(n.sum()))]
+
+
 def _corner_products(points: np.ndarray, cells: np.ndarray):
     """(cross, dot) (k, m) of every corner of the cells (m, k): :func:`cell_quality`'s products."""
     m, k = cells.shape
@@ -154,7 +168,8 @@ def _cell_cot(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return np.where((cr > 0).all(axis=0), p.max(axis=0), np.inf)
 
 
-def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool = False, ranges=None) -> np.ndarray:
+def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool = False, ranges=None,
+                 cots=None) -> np.ndarray:
     """Ids (ascending) of a superset of the cells whose :func:`cell_quality` is below ``below`` degrees.
 
     A corner of angle a in (0, 180) has min(a, 180 - a) < b exactly when its cross product is below
@@ -162,9 +177,12 @@ def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool
     (the exact quality then decides), and an invalid corner (cross <= 0) always counts.  Sqrt- and
     arctan-free, on a few columns at a time.  ``ranges`` (a list): the cells' area range per chunk,
     from the same read (:func:`._fastcalls.screen_cells`; numpy: (lo, hi) per :data:`_RANGE_CHUNK`
-    cells), is appended to it, None where the screen did not run.
+    cells), is appended to it, None where the screen did not run.  ``cots`` (a list): the kept cells'
+    :func:`_cell_cot`, where the compiled screen gave it (from the same read), is appended to it, else None.
     """
     m, k = cells.shape
+    if cots is not None and not (fast and m and 0.0 < below < 89.0):
+        cots.append(None)
     if m == 0 or below <= 0.0 or below >= 89.0:  # no cell, or none / (almost) every cell: no screen
         if ranges is not None:
             ranges.append((np.empty(0), np.empty(0), np.empty(0, bool)) if m == 0 else None)
@@ -173,9 +191,11 @@ def _maybe_below(points: np.ndarray, cells: np.ndarray, below: float, fast: bool
     if fast:  # the same test, compiled (``fast``: the mesh runs on the compiled kernels), threaded, with
         # the cells' area range in the same read (the next pass's ``area_limits``); through _fast: its
         # compile (0.2-0.4 s, the first run ever) is timed apart, as every kernel's
-        ids, rng = _fastcalls.screen_cells(points, cells, t)
+        ids, rng, cot = _fastcalls.screen_cells(points, cells, t)
         if ranges is not None:
             ranges.append(rng)
+        if cots is not None:
+            cots.append(cot)
         return ids
     rlo = rhi = None
     if ranges is not None:  # the area range per chunk of _RANGE_CHUNK cells, from the same read
@@ -318,15 +338,18 @@ def patch_moves(
     area_limits: tuple[float, float] | None = None,
     size: float | None = SIZE,
     with_range: bool = False,
+    overwrite: bool = False,
 ):
     """The points with the patches of the worst cells moved (see the module docstring).
 
     ``size``: a cell of ``size`` x the input's median cell area (``floors.area_median``) counts in the
     patch's minimum like a corner of ``below`` degrees, smaller cells proportionally less (None, or no
     floors: angles only).  ``with_range``: (points, the (smallest, largest) signed cell area at them,
-    :func:`._fastcalls.area_limits`' numbers, or None where the compiled screen did not give it)."""
+    :func:`._fastcalls.area_limits`' numbers, or None where the compiled screen did not give it).
+    ``overwrite``: the patches' nodes move in ``points`` itself when it is a float64 array (one the caller
+    gives away: ``angle.step``'s pass result; no copy of every point, 16 MB at 1M triangles)."""
     P, rng, moved = _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, area_band, area_limits,
-                                 size, with_range)
+                                 size, with_range, overwrite)
     if not with_range:
         return P
     if rng is None or any(r is None for r in rng):
@@ -336,7 +359,8 @@ def patch_moves(
     return P, _area_range_np(P, topo, rng, moved)
 
 
-def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, area_band, area_limits, size, with_range):
+def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, area_band, area_limits, size, with_range,
+                 overwrite=False):
     """:func:`patch_moves`: (points, the screen's per-chunk area ranges or None, the ids of the cells whose
     corners moved, or None)."""
     P = np.asarray(points, dtype=np.float64)
@@ -347,11 +371,14 @@ def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, are
     # exact quality of every cell was most of a pass); the same cells, values and order as from all
     fast = _fast.active(topo)
     rng = [] if with_range else None
-    cand = np.concatenate([_maybe_below(P, topo.tri, below, fast, rng), nt + _maybe_below(P, topo.quad, below, fast, rng)])
+    cots = []  # the candidates' _cell_cot where the compiled screen gave it
+    cand = np.concatenate([_maybe_below(P, topo.tri, below, fast, rng, cots),
+                           nt + _maybe_below(P, topo.quad, below, fast, rng, cots)])
     ntc = int(cand.searchsorted(nt))  # the candidates: triangles, then quads
     if not cand.size:
         return P, rng, None
-    cot = np.concatenate([_cell_cot(P, topo.tri[cand[:ntc]]), _cell_cot(P, topo.quad[cand[ntc:] - nt])])
+    cot = np.concatenate([_cell_cot(P, topo.tri[cand[:ntc]]) if cots[0] is None else cots[0],
+                          _cell_cot(P, topo.quad[cand[ntc:] - nt]) if cots[1] is None else cots[1]])
 
     def exact(ids):
         t = ids[: int(ids.searchsorted(ntc))]
@@ -360,8 +387,8 @@ def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, are
     S = None
     if size and floors is not None and floors.area_median > 0:
         S = np.radians(below) / (size * floors.area_median)
-    used_cells = np.zeros(nt + topo.n_quad, bool)
-    out = P.copy()
+    used_cells = set()  # the cells of the patches so far (a few hundred: no per-cell array)
+    out = P if overwrite else P.copy()  # (the patches read P only before any of them moves)
     done = 0
     patches, patch_cells = [], []
     for i in _worst_first(cot, exact, 4 * cells + 16, np.radians(below)):  # at most a few dozen candidates, at most ``cells`` patches
@@ -372,14 +399,17 @@ def _patch_moves(points, topo, floors, below, cells, rings, iterations, eps, are
         nodes = verts[~blocked[verts]]
         if not nodes.size:
             continue
+        done += 1
+        if c in used_cells:  # the cell is one of its own patch's (a corner of it moves): shared, skipped
+            continue
         for _ in range(rings):
-            nb = np.concatenate([topo.ring_indices[topo.ring_offsets[v]:topo.ring_offsets[v + 1]] for v in nodes])
+            nb = _ring_of(topo, nodes)
             nodes = np.union1d(nodes, nb[~blocked[nb]])
         ids = np.unique(_csr(topo, nodes))
-        done += 1
-        if used_cells[ids].any():
+        idl = ids.tolist()
+        if not used_cells.isdisjoint(idl):
             continue
-        used_cells[ids] = True
+        used_cells.update(idl)
         patches.append(_Patch(P, topo, nodes, ids, floors, S))
         patch_cells.append(ids)
     # the patches share no cell, so none has another's moving nodes among its cells: all at once

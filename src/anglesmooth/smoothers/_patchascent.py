@@ -5,26 +5,27 @@ One patch (:class:`_Patch`) holds its moving nodes and the corners of every cell
 local indices; :func:`_ascend` is the ascent of one patch, :func:`ascend_all` that of every patch of
 a pass at once (they share no cell, so none sees another's nodes move): the same operations, bit
 for bit, with one evaluation of all the patches' trial steps per ascent step instead of one per
-patch.  The direction is the min-norm point of the hull of the active corners' gradients
+patch (:class:`._patchbatch._Batch`).  The direction is the min-norm point of the hull of the active corners' gradients
 (:func:`._minnorm._min_norm`: Wolfe's algorithm, exact, warm-started from the previous step's corral).
 Pure numpy on a few dozen nodes, the same for the numpy and the compiled kernels.
 """
 
 from __future__ import annotations
 
+import bisect
 import math
 
 import numpy as np
 
 from ..topology import Topology
 from ._minnorm import _wolfe
+from ._patchbatch import _Batch
 
 __all__ = ["ascend_all"]
 
 _GAIN = 1e-10  # radians: a step must raise the minimum by this (round-off never decides a step)
 _EPS_MIN = 1e-4  # radians: the active-set tolerance halves down to this, then the ascent stops
 _HALVINGS = 0.5 ** np.arange(8)
-_BAND_MIN = 1024  # corners x trial steps below which the batch score takes every corner's arctan2
 _FIRST = 4  # trial steps scored first (the rest only if a patch takes none of them)
 
 
@@ -49,6 +50,17 @@ def _area2(c):
         c[..., 3, 0] - c[..., 1, 0])
 
 
+def _setdiff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.setdiff1d(a, b)`` (the sorted unique values of ``a`` not in ``b``) by a binary search in the
+    sorted ``b``: no lookup table over the range of the node ids, which ``np.isin`` may build (a third of
+    a patch's set-up on 100k triangles)."""
+    u = np.unique(a)
+    if not b.size:
+        return u
+    sb = np.sort(b)
+    return u[sb[np.minimum(sb.searchsorted(u), sb.shape[0] - 1)] != u]
+
+
 class _Patch:
     """One patch: its moving nodes and the corners of every cell incident to them, as local indices.
 
@@ -68,7 +80,7 @@ class _Patch:
         tri = topo.tri[cell_ids[cell_ids < nt]]
         quad = topo.quad[cell_ids[cell_ids >= nt] - nt]
         allv = np.concatenate([tri.ravel(), quad.ravel()]).astype(np.intp)
-        ext = np.setdiff1d(allv, nodes)
+        ext = _setdiff(allv, nodes)
         local = np.concatenate([nodes, ext])
         order = np.argsort(local, kind="stable")
         ranked = local[order]
@@ -169,33 +181,53 @@ class _Patch:
         return self.gradient_rows(sel, _corner_gradients(self.quad[sel] if self.any_quad else None, th, u, w)
                                   ).reshape(sel.shape[0], self.n, 2)
 
+    def _cols6(self) -> np.ndarray:
+        """(C, 6): where a corner's 6 gradient entries go among the columns of :meth:`gradient_rows`' rows:
+        its slots' (x, y), the non-moving slots' to 2 spare columns (topology only, cached)."""
+        c = self.__dict__.get("_col6")
+        if c is None:
+            slot = np.minimum(self.l3, self.n)
+            c = self._col6 = (2 * slot[:, :, None] + np.arange(2)).reshape(-1, 6)
+        return c
+
     def gradient_rows(self, sel, g6):
         """(c, 2 n) C-contiguous: the corners ``sel``'s gradients ``g6`` (c, 6; :func:`_corner_gradients`)
         as rows over the moving nodes' (x, y)."""
-        c = self.__dict__.get("_col6")
-        if c is None:  # where a corner's 6 entries go: its slots' (x, y), the non-moving ones to 2 spare columns
-            slot = np.minimum(self.l3, self.n)
-            c = self._col6 = (2 * slot[:, :, None] + np.arange(2)).reshape(-1, 6)
         G = np.zeros((sel.shape[0], 2 * self.n + 2))
         # a corner's three nodes are distinct: one value per moving entry, as np.add.at would sum it
-        G[_rows(sel.shape[0]), c[sel]] = g6
+        G[_rows(sel.shape[0]), self._cols6()[sel]] = g6
         return np.ascontiguousarray(G[:, : 2 * self.n])
+
+    def _area_tables(self):
+        """Per kind (triangles, quads): (the cells' local slots rolled by -1 and by +1, the columns of
+        their x entries in :meth:`gradient_rows`' layout), topology only, cached."""
+        t = self.__dict__.get("_atab")
+        if t is None:
+            t = self._atab = [None if v is None else (np.roll(v, -1, axis=1), np.roll(v, 1, axis=1), 2 * np.minimum(v, self.n))
+                              for v in (self.lt, self.lq)]
+        return t
+
+    def area_rows(self, sel, Y, G):
+        """Into the rows G (c, 2 n + 2; zeros): the gradient of ``S`` x the area of the cells ``sel``
+        (ascending indices in area order: triangles, then quads) at local positions Y (n + m, 2) with
+        respect to the moving nodes' (x, y) (the 2 spare columns take the other corners').  Corner i of
+        a polygon moves its area by (y_{i+1} - y_{i-1}, x_{i-1} - x_{i+1}) / 2 (the shoelace formula)."""
+        k = int(sel.searchsorted(self.ntri))
+        for tab, s, R in zip(self._area_tables(), (sel[:k], sel[k:] - self.ntri), (G[:k], G[k:])):
+            if tab is None or not s.size:
+                continue
+            nx, pv, col = Y.take(tab[0].take(s, axis=0), axis=0), Y.take(tab[1].take(s, axis=0), axis=0), tab[2].take(s, axis=0)
+            r = _rows(s.shape[0])
+            # a cell's corners are distinct: one value per moving entry
+            R[r, col] = (0.5 * self.S) * (nx[..., 1] - pv[..., 1])
+            R[r, col + 1] = (0.5 * self.S) * (pv[..., 0] - nx[..., 0])
 
     def area_gradients(self, sel, Y):
         """(c, n, 2): gradient of ``S`` x the area of the cells ``sel`` (indices in area order: triangles,
-        then quads) at local positions Y (n + m, 2) with respect to the moving nodes.  Corner i of a
-        polygon moves its area by (y_{i+1} - y_{i-1}, x_{i-1} - x_{i+1}) / 2 (the shoelace formula)."""
-        G = np.zeros((sel.shape[0], self.ext.shape[0] + self.n, 2))
-        for cells, rows in ((self.lt, sel < self.ntri), (self.lq, sel >= self.ntri)):
-            r = np.flatnonzero(rows)
-            if not r.size:
-                continue
-            v = cells[sel[r] - (0 if cells is self.lt else self.ntri)]  # (r, k) local slots
-            nx, pv = Y[np.roll(v, -1, axis=1)], Y[np.roll(v, 1, axis=1)]
-            # a cell's corners are distinct: one value per entry
-            G[r[:, None], v, 0] = (0.5 * self.S) * (nx[..., 1] - pv[..., 1])
-            G[r[:, None], v, 1] = (0.5 * self.S) * (pv[..., 0] - nx[..., 0])
-        return G[:, : self.n]
+        then quads) at local positions Y (n + m, 2) with respect to the moving nodes (:meth:`area_rows`)."""
+        G = np.zeros((sel.shape[0], 2 * self.n + 2))
+        self.area_rows(sel, Y, G)
+        return G[:, : 2 * self.n].reshape(sel.shape[0], self.n, 2)
 
 
 _AR = np.arange(256)[:, None]  # row indices of a gradient matrix (grown by _rows)
@@ -215,7 +247,7 @@ def _corner_gradients(quad, th, u, w) -> np.ndarray:
     / |u|^2, minus their sum; a quad corner above 90 deg (``quad``: which are quad corners, or None)
     the opposite: its quality is 180 deg - angle).  Elementwise: every corner's values are those of
     that corner alone."""
-    ux, uy, wx, wy = u[:, 0], u[:, 1], w[:, 0], w[:, 1]
+    ux, uy, wx, wy = (u[0], u[1], w[0], w[1]) if isinstance(u, (tuple, list)) else (u[:, 0], u[:, 1], w[:, 0], w[:, 1])
     g = np.empty((th.shape[0], 6))
     sw, su = wx * wx + wy * wy, ux * ux + uy * uy  # (the two-term sums (w * w).sum(1), in that order)
     np.divide(-wy, sw, out=g[:, 0])
@@ -259,134 +291,37 @@ def _direction(patch: _Patch, st: dict):
     last = st["last"]
     key = active.tolist()
     if last is None or key != last:
-        nc = int(active.searchsorted(C))
+        nc = bisect.bisect_left(key, C)  # (active.searchsorted(C))
         ac, cl = active[:nc], active[nc:] - C
-        G = patch.gradient_rows(ac, st["g6"][ac])
+        # the corners' rows then the size terms' in one array (gradient_rows and area_gradients' values)
+        G = np.zeros((active.shape[0], 2 * patch.n + 2))
+        G[_rows(nc), patch._cols6().take(ac, axis=0)] = st["g6"].take(ac, axis=0)
         if cl.size:
-            G = np.concatenate([G, patch.area_gradients(cl, st["Y"]).reshape(cl.shape[0], 2 * patch.n)])
-        corral = st["corral"]
-        at = active.searchsorted(corral)
-        start = at[active[np.minimum(at, active.shape[0] - 1)] == corral].tolist()
+            patch.area_rows(cl, st["Y"], G[nc:])
+        G = np.ascontiguousarray(G[:, : 2 * patch.n])
+        # the previous corral's rows that are still active, at their places in the active set (a few rows:
+        # Python lists)
+        where = {c: i for i, c in enumerate(key)}
+        start = [where[c] for c in st["corral"] if c in where]
         # (ascend_all ignores floating-point errors: a singular corral system gives NaN, handled there)
         d, S = (G[0].copy(), [0]) if G.shape[0] == 1 else _wolfe(G, G.shape[0], start)
-        st["corral"] = active[S]
+        st["corral"] = [key[i] for i in S]
         st["d"], st["nd"] = d, math.sqrt(float(d @ d))
         st["last"] = key
     return st["d"], st["nd"]
 
 
-class _Batch:
-    """The corners, cells and floor rows of several patches in one set of arrays (patch after patch),
-    so that one evaluation scores every patch's trial steps: :meth:`score` is :meth:`_Patch.score`
-    of each patch, the same values bit for bit (per-patch minima and maxima by ``reduceat``)."""
-
-    def __init__(self, patches):
-        L = np.array([p.n + p.ext.shape[0] for p in patches])
-        C = np.array([p.lv.shape[0] for p in patches])
-        nq = np.array([p.nq for p in patches])
-        self.off = np.concatenate([[0], np.cumsum(L)])  # local node block of each patch
-        self.cst = np.concatenate([[0], np.cumsum(C)])  # corner block
-        qst = np.concatenate([[0], np.cumsum(nq)])
-        self.lv, self.ln, self.lp = (np.concatenate([getattr(p, a) + o for p, o in zip(patches, self.off)])
-                                     for a in ("lv", "ln", "lp"))
-        self.quad = np.concatenate([p.quad for p in patches])
-        self.any_quad = bool(nq.sum())
-        self.tri0 = np.concatenate([c + np.arange(p.ntri) for p, c in zip(patches, self.cst)])
-        if self.any_quad:
-            self.lq = np.concatenate([p.lq + o for p, o in zip(patches, self.off) if p.nq])
-        # the cells' areas patch by patch: its triangles (tri0) then its quads
-        self.aord = np.concatenate([np.concatenate([t0 + np.arange(p.ntri), self.tri0.shape[0] + q0 + np.arange(p.nq)])
-                                    for p, t0, q0 in zip(patches, np.concatenate([[0], np.cumsum([p.ntri for p in patches])]), qst)])
-        self.ast = np.concatenate([[0], np.cumsum([p.ntri + p.nq for p in patches])[:-1]])
-        rows = [(i, p.floor) for i, p in enumerate(patches) if p.floor is not None]
-        self.floor = None
-        if rows:
-            fc = np.concatenate([f[0] + self.cst[i] for i, f in rows])
-            fq = np.concatenate([f[1] for _, f in rows])
-            qc = np.minimum(np.concatenate([f[2] + qst[i] for i, f in rows]), max(int(qst[-1]) - 1, 0))
-            fa, f1, f2 = (np.concatenate([f[j] for _, f in rows]) for j in (3, 4, 5))
-            # a False column before every patch's rows, so that every reduceat segment is non-empty
-            cnt = np.zeros(len(patches), np.intp)
-            cnt[[i for i, _ in rows]] = [f[0].shape[0] for _, f in rows]
-            fst = np.concatenate([[0], np.cumsum(cnt + 1)[:-1]])
-            pos = np.concatenate([fst[i] + 1 + np.arange(f[0].shape[0]) for i, f in rows])
-            self.floor = (fc, fq, qc, fa, f1, f2, pos, fst, int(cnt.sum()) + len(patches))
-        self.cpatch = np.repeat(np.arange(len(patches)), C)  # the patch of every corner
-        self.cst_end = self.cst[1:].tolist()
-        self.cst = self.cst[:-1]
-        self.S = patches[0].S  # one size scale for every patch of a pass
-
-    def score(self, Y, lo, hi):
-        """(K, patches) minimum corner quality at Y (K, all local nodes, 2), -inf where a patch is invalid
-        or breaks a limit; and the corners (K, all corners)."""
-        # x + iy: one gather fetches both, complex subtraction is the two real ones (the same bits)
-        z = Y.view(np.complex128)[..., 0]
-        v = np.take(z, self.lv, axis=1)
-        u = np.take(z, self.ln, axis=1) - v
-        w = np.take(z, self.lp, axis=1) - v
-        ux, uy, wx, wy = u.real, u.imag, w.real, w.imag
-        cr = ux * wy - uy * wx
-        dot = ux * wx + uy * wy
-        q = self._band_quality(cr, dot)
-        ok = np.minimum.reduceat(cr, self.cst, axis=1) > 0  # (cr > 0).all() per patch, NaN included
-        a = 0.5 * cr[:, self.tri0]
-        if self.any_quad:
-            c = np.take(z, self.lq, axis=1)
-            d02, d13 = c[..., 2] - c[..., 0], c[..., 3] - c[..., 1]
-            q2 = d02.real * d13.imag - d02.imag * d13.real  # _area2's diagonal formula
-            a = np.concatenate([a, 0.5 * q2], axis=1)
-        a = a[:, self.aord]
-        amin = np.minimum.reduceat(a, self.ast, axis=1)
-        ok &= (amin >= lo) & (np.maximum.reduceat(a, self.ast, axis=1) <= hi)
-        if self.floor is not None:
-            fc, fq, qc, fa, f1, f2, pos, fst, width = self.floor
-            a2 = cr[:, fc]
-            if self.any_quad:
-                a2 = np.where(fq, q2[:, qc], a2)
-            e1 = np.hypot(ux[:, fc], uy[:, fc])
-            e2 = np.hypot(wx[:, fc], wy[:, fc])
-            bad = np.zeros((Y.shape[0], width), bool)
-            bad[:, pos] = ~((a2 >= fa) & (e1 >= f1) & (e2 >= f2))
-            ok &= ~np.logical_or.reduceat(bad, fst, axis=1)
-        f = np.minimum.reduceat(q, self.cst, axis=1)
-        if self.S is not None:
-            f = np.minimum(f, self.S * amin)
-        return np.where(ok, f, -np.inf), (cr, dot, u, w, a)
-
-    @staticmethod
-    def finite(pm) -> bool:
-        """Every patch's largest cotangent finite (so that no p is NaN: ``p >= thr`` is ``~(p < thr)``)."""
-        return bool(np.isfinite(np.add.reduce(pm, axis=None)))
-
-    def corner_range(self, i):
-        """The corner indices of patch i."""
-        return np.arange(self.cst[i], self.cst_end[i])
-
-    def _band_quality(self, cr, dot):
-        """(K, corners): the corners' quality (``_Patch.corners``' ``arctan2`` and quad fold, the same
-        bits) where it may be its patch's minimum, +inf elsewhere: the patch's minimum, exactly.
-
-        A corner's quality is a decreasing function of p = dot / cr (its cotangent; quads: |dot| / cr)
-        where cr > 0 (elsewhere the patch is invalid and its minimum unused).  Only the corners with p
-        within 1e-8 (1 + pmax^2) of their patch's largest p get the arctan2: every other corner's angle
-        is above the minimum's by more than 1e-9 radians, far above the round-off of either; a NaN or
-        infinite p (or an overflowing pmax^2) keeps every corner of the patch."""
-        if cr.size <= _BAND_MIN:  # a few corners: every arctan2 costs less than the band's operations
-            return self.quality(cr, dot, slice(None))[0]
-        p = dot / cr  # (ascend_all ignores floating-point errors: cr = 0 or an overflow, handled here)
-        if self.any_quad:
-            p = np.where(self.quad, np.abs(p), p)
-        pm = np.maximum.reduceat(p, self.cst, axis=1)
-        thr = pm - 1e-8 * (1.0 + pm * pm)
-        r, c = (p >= thr[:, self.cpatch]).nonzero() if self.finite(pm) else (~(p < thr[:, self.cpatch])).nonzero()
-        q = np.full(cr.shape, np.inf)
-        q[r, c] = self.quality(cr[r, c], dot[r, c], c)[0]
-        return q
-
-    def quality(self, cr, dot, cols):
-        """(quality, angle) of corners ``cols`` with cross and dot products cr, dot (``_Patch.corners``)."""
-        th = np.arctan2(cr, dot)
-        return (np.where(self.quad[cols], np.minimum(th, np.pi - th), th) if self.any_quad else th), th
+def _trial_planes(Ycur, batch, patches, out, moving, sl):
+    """The trial positions of the steps ``sl`` as node-major x and y planes (all local nodes, K): every
+    patch at its current positions ``Ycur`` (all local nodes, 2), the moving ones' nodes at
+    x + step d (``moving``: patch -> (steps, unit direction (n, 2)))."""
+    K = len(range(*sl.indices(_HALVINGS.shape[0])))
+    XT, ZT = np.repeat(Ycur[:, 0:1], K, axis=1), np.repeat(Ycur[:, 1:2], K, axis=1)
+    for i, (steps, dn) in moving.items():
+        o, n, s = batch.off[i], patches[i].n, steps[sl][None, :]
+        XT[o:o + n] = out[i][:, 0:1] + dn[:, 0:1] * s
+        ZT[o:o + n] = out[i][:, 1:2] + dn[:, 1:2] * s
+    return XT, ZT
 
 
 def ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
@@ -409,7 +344,7 @@ def _ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
         if np.isfinite(f0):
             h = float(np.mean(np.sqrt((u[0] * u[0]).sum(1))))
             states[i] = dict(lo=lo, hi=hi, f0=f0, h=h, t=0.1 * h, eps=eps, q=q[0], th=th[0], u=u[0], w=w[0],
-                             last=None, corral=np.zeros(0, np.intp), a=a[0], Y=Y[0],
+                             last=None, corral=[], a=a[0], Y=Y[0],
                              g6=_corner_gradients(p.quad if p.any_quad else None, th[0], u[0], w[0]))
     if not states:
         return out
@@ -432,20 +367,21 @@ def _ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
             if not states:
                 break
             continue
-        Ys = np.repeat(Ycur[None], 8, axis=0)
-        for i, (steps, dn) in moving.items():
-            o = batch.off[i]
-            Ys[:, o:o + patches[i].n] = out[i][None] + steps[:, None, None] * dn[None]
+        planes = [_trial_planes(Ycur, batch, patches, out, moving, slice(0, _FIRST))]
         # the longest steps first (most patches take one of them: 100k random triangles, 9 in 10), all
-        # 8 if a patch took none of those; a row's scores do not depend on the other rows
-        fs, (crs, dots, us, ws, As) = batch.score(Ys[:_FIRST], lo, hi)
+        # 8 if a patch took none of those; a step's scores do not depend on the other steps'
+        fs, (crs, dots, us, ws, As) = batch.score_planes(*planes[0], lo, hi)
         mv = list(moving)
+        mva = np.array(mv) if len(mv) < len(patches) else slice(None)  # (every patch: all columns)
         gain = np.array([states[i]["f0"] for i in mv]) + _GAIN
-        if not np.logical_or.reduce(fs[:, mv] > gain, axis=0).all():
-            f2, more = batch.score(Ys[_FIRST:], lo, hi)
+        up = fs[:, mva] > gain
+        if not np.logical_or.reduce(up, axis=0).all():
+            planes.append(_trial_planes(Ycur, batch, patches, out, moving, slice(_FIRST, None)))
+            f2, more = batch.score_planes(*planes[1], lo, hi)
             fs = np.concatenate((fs, f2))
-            crs, dots, us, ws, As = (np.concatenate((x, y)) for x, y in zip((crs, dots, us, ws, As), more))
-        up = fs[:, mv] > gain
+            up = np.concatenate((up, f2[:, mva] > gain))
+            crs, dots, As = (np.concatenate((x, y), axis=1) for x, y in zip((crs, dots, As), more[:2] + more[4:]))
+            us, ws = (tuple(np.concatenate((x, y), axis=1) for x, y in zip(p, r)) for p, r in zip((us, ws), more[2:4]))
         first, some = up.argmax(axis=0).tolist(), np.logical_or.reduce(up, axis=0).tolist()
         taken = []
         for i, k, has in zip(mv, first, some):
@@ -459,24 +395,35 @@ def _ascend_all(patches, Xs, iterations, eps, area_band, area_limits):
                 if st["eps"] < _EPS_MIN:
                     del states[i]
         if taken:  # the new corners of the patches that moved, in one gather (the same values)
-            cols = np.concatenate([batch.corner_range(i) for i, _, _ in taken])
-            rows = np.concatenate([np.full(batch.cst_end[i] - batch.cst[i], k) for i, k, _ in taken])
-            qa, tha = batch.quality(crs[rows, cols], dots[rows, cols], cols)
-            ua = us[rows, cols, None].view(np.float64)
-            wa = ws[rows, cols, None].view(np.float64)
-            ga = _corner_gradients(batch.quad[cols] if batch.any_quad else None, tha, ua, wa)
+            ks = {k for _, k, _ in taken}
+            arrs = (crs, dots) + us + ws  # (cross, dot, ux, uy, wx, wy), (corners, K)
+            if len(ks) == 1:  # (usually: every patch took its longest step) one trial step's column
+                k = ks.pop()
+                if len(taken) == len(patches):
+                    cols = slice(None)
+                    got = [np.ascontiguousarray(x[:, k]) for x in arrs]
+                else:
+                    cols = np.concatenate([batch.corner_range(i) for i, _, _ in taken])
+                    got = [x[:, k].take(cols) for x in arrs]
+            else:
+                cols = np.concatenate([batch.corner_range(i) for i, _, _ in taken])
+                rows = np.repeat([k for _, k, _ in taken], [batch.crange[i].shape[0] for i, _, _ in taken])
+                got = [x[cols, rows] for x in arrs]
+            qa, tha = batch.quality(got[0], got[1], cols)
+            ga = _corner_gradients(batch.quad[cols] if batch.any_quad else None, tha, got[2:4], got[4:6])
             s0 = 0
             for i, k, steps in taken:
                 st = states[i]
                 o, n = batch.off[i], patches[i].n
                 s1 = s0 + batch.cst_end[i] - batch.cst[i]
-                out[i] = Ys[k, o:o + n]
+                XT, ZT = planes[k // _FIRST]
+                out[i] = np.stack((XT[o:o + n, k % _FIRST], ZT[o:o + n, k % _FIRST]), axis=1)
                 Ycur[o:o + n] = out[i]
-                st["f0"], st["t"] = float(fs[k, i]), min(2.0 * steps[k], 0.5 * st["h"])
-                st["q"], st["th"], st["u"], st["w"], st["g6"] = qa[s0:s1], tha[s0:s1], ua[s0:s1], wa[s0:s1], ga[s0:s1]
+                st["f0"], st["t"] = float(fs[k, i]), min(2.0 * float(steps[k]), 0.5 * st["h"])
+                st["q"], st["g6"] = qa[s0:s1], ga[s0:s1]
                 if patches[i].S is not None:  # the areas and positions the size terms' gradients need
                     a0 = batch.ast[i]
-                    st["a"] = As[k, a0:a0 + patches[i].ntri + patches[i].nq]
+                    st["a"] = As[a0:a0 + patches[i].ntri + patches[i].nq, k].copy()
                     st["Y"] = Ycur[o:batch.off[i + 1]].copy()
                 st["last"] = None
                 s0 = s1

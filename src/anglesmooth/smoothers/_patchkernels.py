@@ -30,27 +30,59 @@ RANGE_CHUNK = 256
 
 
 @_compiled
-def _screen_below(pts, cells, t, c0, c1, out, lo, hi, nan):
+def _max_cot(xs, ys, k):
+    """``_patch._cell_cot`` of one cell with corners (xs[i], ys[i]), i < k: the largest corner cotangent
+    dot / cross (quads: its absolute value), +inf if some cross product is not positive; its operations
+    (u = p_{c+1} - p_c, w = p_{c-1} - p_c, cross = ux wy - uy wx, dot = ux wx + uy wy) and its fold
+    (``max`` over the corners in order, NaN kept)."""
+    best, valid = 0.0, True
+    for c in range(k):
+        n, p = (c + 1) % k, (c - 1) % k
+        ux, uy, wx, wy = xs[n] - xs[c], ys[n] - ys[c], xs[p] - xs[c], ys[p] - ys[c]
+        cr = ux * wy - uy * wx
+        q = (ux * wx + uy * wy) / cr
+        if k == 4:
+            q = abs(q)
+        valid &= cr > 0
+        if c == 0 or q != q:
+            best = q
+        elif best == best and q > best:
+            best = q
+    return best if valid else np.inf
+
+
+@_compiled
+def _screen_below(pts, cells, t, c0, c1, out, lo, hi, nan, cot):
     """Cells ``c0:c1`` (``c0`` a multiple of :data:`RANGE_CHUNK`): ``out[i]`` some corner of cell i has
     cross < t * |dot| + 1e-300 (see ``_patch._maybe_below``; the edges e_c = p_{c+1} - p_c in scalars,
-    the same operations as the numpy screen), and per chunk j of :data:`RANGE_CHUNK` cells the smallest
+    the same operations as the numpy screen), and then its largest corner cotangent (:func:`_max_cot`,
+    ``_patch._cell_cot``'s number) into ``cot[c0 + h]``, h the number of kept cells before it from
+    ``c0`` on (packed: a few pages of ``cot`` touched, not all of them); returns the number kept; per chunk j
+    of :data:`RANGE_CHUNK` cells the smallest
     and largest signed area ``lo[j]``, ``hi[j]`` (``_fastkernels._cell_area_range``' operations, in its
     order; ``nan[j]``: one is NaN).  One read of the cells for the screen and the next pass's area
     range (:func:`_fold_range`); a part of the cells each, so that threads can share a call."""
     k = cells.shape[1]
+    xs, ys = np.empty(4), np.empty(4)
+    h = c0
     for j0 in range(c0, c1, RANGE_CHUNK):
         j1 = min(j0 + RANGE_CHUNK, c1)
-        l, h, bad = np.inf, -np.inf, False
+        l, hh, bad = np.inf, -np.inf, False
         if k == 3:
             for i in range(j0, j1):
                 a, b, c = cells[i, 0], cells[i, 1], cells[i, 2]
                 x0, y0, x1, y1, x2, y2 = pts[a, 0], pts[a, 1], pts[b, 0], pts[b, 1], pts[c, 0], pts[c, 1]
                 e0x, e0y, e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x0 - x2, y0 - y2
-                out[i] = (_corner_below(e0x, e0y, e2x, e2y, t) | _corner_below(e1x, e1y, e0x, e0y, t)
-                          | _corner_below(e2x, e2y, e1x, e1y, t))
+                hit = (_corner_below(e0x, e0y, e2x, e2y, t) | _corner_below(e1x, e1y, e0x, e0y, t)
+                       | _corner_below(e2x, e2y, e1x, e1y, t))
+                out[i] = hit
+                if hit:
+                    xs[0], xs[1], xs[2], ys[0], ys[1], ys[2] = x0, x1, x2, y0, y1, y2
+                    cot[h] = _max_cot(xs, ys, 3)
+                    h += 1
                 ar = 0.5 * ((x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0))
                 bad |= ar != ar
-                l, h = min(l, ar), max(h, ar)
+                l, hh = min(l, ar), max(hh, ar)
         else:
             for i in range(j0, j1):
                 a, b, c, d = cells[i, 0], cells[i, 1], cells[i, 2], cells[i, 3]
@@ -58,13 +90,19 @@ def _screen_below(pts, cells, t, c0, c1, out, lo, hi, nan):
                 x3, y3 = pts[d, 0], pts[d, 1]
                 e0x, e0y, e1x, e1y = x1 - x0, y1 - y0, x2 - x1, y2 - y1
                 e2x, e2y, e3x, e3y = x3 - x2, y3 - y2, x0 - x3, y0 - y3
-                out[i] = (_corner_below(e0x, e0y, e3x, e3y, t) | _corner_below(e1x, e1y, e0x, e0y, t)
-                          | _corner_below(e2x, e2y, e1x, e1y, t) | _corner_below(e3x, e3y, e2x, e2y, t))
+                hit = (_corner_below(e0x, e0y, e3x, e3y, t) | _corner_below(e1x, e1y, e0x, e0y, t)
+                       | _corner_below(e2x, e2y, e1x, e1y, t) | _corner_below(e3x, e3y, e2x, e2y, t))
+                out[i] = hit
+                if hit:
+                    xs[0], xs[1], xs[2], xs[3], ys[0], ys[1], ys[2], ys[3] = x0, x1, x2, x3, y0, y1, y2, y3
+                    cot[h] = _max_cot(xs, ys, 4)
+                    h += 1
                 ar = 0.5 * ((x2 - x0) * (y3 - y1) - (y2 - y0) * (x3 - x1))
                 bad |= ar != ar
-                l, h = min(l, ar), max(h, ar)
+                l, hh = min(l, ar), max(hh, ar)
         j = j0 // RANGE_CHUNK
-        lo[j], hi[j], nan[j] = l, h, bad
+        lo[j], hi[j], nan[j] = l, hh, bad
+    return h - c0
 
 
 @_compiled

@@ -495,6 +495,6 @@ def step(
         # area range too (1M triangles: ~12 ms a pass of reading the cells again at the next start)
         pts, rng = patch_moves(res.points, topo, floors, below=patch_below, cells=patch_cells,
                                iterations=patch_iterations, area_band=area_band, area_limits=limits,
-                               with_range=True)
+                               with_range=True, overwrite=True)
         return with_area_range(StepResult(pts, res.rejected), rng)
     return res
