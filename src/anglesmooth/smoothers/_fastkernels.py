@@ -64,7 +64,7 @@ def score(pts, X, nodes, tp, tv, qp, qv, fl):
         f = nodes[i]
         _node_rows(pts, f, tp, tv, qp, qv, buf)
         for k in range(K):
-            out[k, i] = _node_score_rows(X[k, i, 0], X[k, i, 1], f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, _NOT_STRICT)
+            out[k, i] = _node_score_rows(X[k, i, 0], X[k, i, 1], buf, fl, -np.inf, -np.inf, np.inf, _NOT_STRICT)
     return out
 
 
@@ -173,6 +173,13 @@ def _node_ring_mean(pts, f, free, rp, nbr, lengths):
     return sx / c, sy / c
 
 
+#: inlined copies for ``angle_choose`` (their only call site there, once per node): a called helper
+#: takes its arrays as some 60 words of arguments and increfs them; inlined, ``angle_choose`` runs
+#: without that call overhead (``_node_score`` has no other caller; ``angle_target`` calls ``_node_angle``)
+_node_angle_inline = njit(inline="always")(_node_angle.py_func)
+_node_score_inline = njit(inline="always")(_node_score.py_func)
+
+
 @_kernel
 def angle_target(pts, nodes, free, sp, ring, sa, sb, frac, sap):
     n = nodes.shape[0]
@@ -221,7 +228,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, sap, rp, nbr, tp, tv,
     nofl = np.zeros((0, 0))
     for i in prange(n):
         f = nodes[i]
-        ax, ay = _node_angle(pts, f, free, sp, ring, sa, sb, frac, sap, ub)
+        ax, ay = _node_angle_inline(pts, f, free, sp, ring, sa, sb, frac, sap, ub)
         kp = keep.shape[0] > 0 and keep[i]
         if (not kp and certify.shape[0] > 0 and fl.shape[0] == 0 and certify[i] < 0 and certify[i] > good[i]
                 and _node_certified(pts, ax, ay, f, tp, tv, qp, qv, -certify[i])):
@@ -229,16 +236,16 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, sap, rp, nbr, tp, tv,
             continue
         if kp:  # staying is scored too: gather the cells once, score A from them (the same number)
             _node_rows(pts, f, tp, tv, qp, qv, buf)
-            s_a = _node_score_rows(ax, ay, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, _NOT_STRICT)
+            s_a = _node_score_rows(ax, ay, buf, fl, -np.inf, -np.inf, np.inf, _NOT_STRICT)
         else:
-            s_a = _node_score(pts, ax, ay, f, tp, tv, qp, qv, fl if flnode.shape[0] == 0 or flnode[f] else nofl)
+            s_a = _node_score_inline(pts, ax, ay, f, tp, tv, qp, qv, fl if flnode.shape[0] == 0 or flnode[f] else nofl)
         refused[i] = s_a <= INVALID + 0.5
         cx, cy = pts[free[f], 0], pts[free[f], 1]
         take = s_a >= good[i]
         if not take and not kp:  # more candidates to score: gather the cells once
             _node_rows(pts, f, tp, tv, qp, qv, buf)
         if take and kp:
-            take = s_a >= _node_score_rows(cx, cy, f, tp, qp, buf, fl, s_a, -np.inf, np.inf, _NOT_STRICT)
+            take = s_a >= _node_score_rows(cx, cy, buf, fl, s_a, -np.inf, np.inf, _NOT_STRICT)
             if take:  # nor may its largest moving corner open beyond staying's (or a right angle)
                 m_a = _node_largest_rows(ax, ay, f, tp, qp, buf)
                 take = (m_a <= _node_largest_rows(cx, cy, f, tp, qp, buf)) | (m_a <= 0.0)
@@ -270,7 +277,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, sap, rp, nbr, tp, tv,
                 px, py = cx, cy
             # exact where it beats bs or, with near_ok, where it is good enough (a cut below good[i])
             cut = min(bs, good[i] - 1e-9) if near_ok else bs
-            sk = _node_score_rows(px, py, f, tp, qp, buf, fl, cut, -np.inf, np.inf, _NOT_STRICT)
+            sk = _node_score_rows(px, py, buf, fl, cut, -np.inf, np.inf, _NOT_STRICT)
             if k < 3:
                 stuck = stuck & (sk <= INVALID + 0.5)
             elif stuck:
@@ -289,7 +296,7 @@ def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, sap, rp, nbr, tp, tv,
             fr = 1.0
             for _ in range(7):
                 px, py = cx + fr * dx, cy + fr * dy
-                sk = _node_score_rows(px, py, f, tp, qp, buf, fl, INVALID + 0.5, -np.inf, np.inf, _NOT_STRICT)  # exact where valid
+                sk = _node_score_rows(px, py, buf, fl, INVALID + 0.5, -np.inf, np.inf, _NOT_STRICT)  # exact where valid
                 if sk > INVALID + 0.5:
                     bx, by, bs = px, py, sk
                     break
@@ -306,7 +313,7 @@ def _node_compass(px, py, f, tp, qp, buf, fl, r, iterations, band, directions, a
     a position that opens a corner beyond it (:func:`_node_largest_rows`) scores -inf (``_keepmax.Capped``)."""
     s0 = s_start
     if s0 != s0:
-        s0 = _node_score_rows(px, py, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, strict)
+        s0 = _node_score_rows(px, py, buf, fl, -np.inf, -np.inf, np.inf, strict)
         if cap < np.inf and not (_node_largest_rows(px, py, f, tp, qp, buf) <= cap):
             s0 = -np.inf
     lo0, hi0 = -np.inf, np.inf  # no band
@@ -323,7 +330,7 @@ def _node_compass(px, py, f, tp, qp, buf, fl, r, iterations, band, directions, a
             # only if it beats s0), so the others may be cut off early; a cell outside the area
             # band gives -inf at once (the outcome depends only on the candidates above s0, and
             # those are exact and within the band either way)
-            sc = _node_score_rows(qx, qy, f, tp, qp, buf, fl, max(bs, s0), lo0, hi0, strict)
+            sc = _node_score_rows(qx, qy, buf, fl, max(bs, s0), lo0, hi0, strict)
             # (capped: only a candidate that could win is tested; the others cannot move the node either way)
             if cap < np.inf and sc > max(bs, s0) and not (_node_largest_rows(qx, qy, f, tp, qp, buf) <= cap):
                 sc = -np.inf
@@ -381,7 +388,7 @@ def angle_optimize(pts, x, nodes, free, rp, nbr, tp, tv, qp, qv, best, iteration
         s_start = np.nan if st else best[i]
         if resume_iterations > 0 and tp[f + 1] == tp[f]:  # quads only
             cx, cy = pts[free[f], 0], pts[free[f], 1]
-            s_c = _node_score_rows(cx, cy, f, tp, qp, buf, fl, -np.inf, -np.inf, np.inf, _NOT_STRICT)
+            s_c = _node_score_rows(cx, cy, buf, fl, -np.inf, -np.inf, np.inf, _NOT_STRICT)
             if (s_c > best[i]) & (s_c >= resume_above):
                 px, py, its, r, s_start = cx, cy, resume_iterations, resume_radius * scale, s_c
         out[i, 0], out[i, 1], s_out[i] = _node_compass(px, py, f, tp, qp, buf, fl, r, its, band, directions,
