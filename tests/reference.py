@@ -228,6 +228,20 @@ def _reference_compass_hold(p, i, cur, inc_i, nb_i, kp, input_max, iterations, r
     return y
 
 
+def free_corner_degrees(points, topo):
+    """The corner angles (degrees, by atan2) of the cells with a free node: (k, (n, k) array) per cell kind."""
+    out = []
+    for cells in (topo.tri, topo.quad):
+        c = cells[~topo.fixed[cells].all(axis=1)]
+        k = c.shape[1]
+        a = np.empty(c.shape)
+        for m in range(k):
+            u, v = points[c[:, (m + 1) % k]] - points[c[:, m]], points[c[:, m - 1]] - points[c[:, m]]
+            a[:, m] = np.degrees(np.arctan2(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0], (u * v).sum(axis=1)))
+        out.append((k, a))
+    return out
+
+
 def reference_input_max(points, topo):
     """The largest corner angle (degrees; quads: every corner) of the cells of a free node of ``points``; None
     if one of them is invalid (the default's ``keep_max`` rule is then off)."""

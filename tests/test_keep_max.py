@@ -26,22 +26,14 @@ from anglesmooth.smoothers import get_smoother
 from anglesmooth.smoothers._floors import input_floors
 from anglesmooth.smoothers._keepmax import Capped
 from anglesmooth.topology import build_topology
-from reference import reference_input_max, reference_input_min, reference_keep, reference_pass
+from reference import free_corner_degrees, reference_input_max, reference_input_min, reference_keep, reference_pass
 
 DROPS = Path(__file__).resolve().parent.parent / "benchmarks" / "meshes" / "bl-min-angle-drops"
 
 
 def _mesh_max_deg(points, topo) -> float:
     """The widest corner (degrees) of the cells of a free node (quads: every corner), by atan2."""
-    big = 0.0
-    for cells in (topo.tri, topo.quad):
-        c = cells[~topo.fixed[cells].all(axis=1)]
-        k = c.shape[1]
-        for m in range(k):
-            u, v = points[c[:, (m + 1) % k]] - points[c[:, m]], points[c[:, m - 1]] - points[c[:, m]]
-            a = np.degrees(np.arctan2(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0], (u * v).sum(axis=1)))
-            big = max(big, float(a.max(initial=0.0)))
-    return big
+    return max((float(a.max(initial=0.0)) for _, a in free_corner_degrees(points, topo)), default=0.0)
 
 
 def _bl(name="r61"):

@@ -22,22 +22,15 @@ from anglesmooth.quality import summarize
 from anglesmooth.smoothers import get_smoother
 from anglesmooth.smoothers._floors import input_floors
 from anglesmooth.topology import build_topology
-from reference import reference_input_min, reference_keep, reference_pass
+from reference import free_corner_degrees, reference_input_min, reference_keep, reference_pass
 
 DROPS = Path(__file__).resolve().parent.parent / "benchmarks" / "meshes" / "bl-min-angle-drops"
 
 
 def _free_min_deg(points, topo) -> float:
     """The smallest corner quality (degrees; quad corners min(angle, 180 - angle)) of the cells of a free node."""
-    best = 180.0
-    for cells in (topo.tri, topo.quad):
-        c = cells[~topo.fixed[cells].all(axis=1)]
-        k = c.shape[1]
-        for m in range(k):
-            u, v = points[c[:, (m + 1) % k]] - points[c[:, m]], points[c[:, m - 1]] - points[c[:, m]]
-            a = np.degrees(np.arctan2(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0], (u * v).sum(axis=1)))
-            best = min(best, float((np.minimum(a, 180.0 - a) if k == 4 else a).min(initial=180.0)))
-    return best
+    return min((float((np.minimum(a, 180.0 - a) if k == 4 else a).min(initial=180.0))
+                for k, a in free_corner_degrees(points, topo)), default=180.0)
 
 
 @pytest.mark.parametrize("gen_name", ["paper_triangle_mesh", "paper_mixed_mesh", "paper_quad_mesh"])
