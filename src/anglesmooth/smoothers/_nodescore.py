@@ -36,7 +36,7 @@ _helper = njit(error_model="numpy", nogil=True)
 
 @_helper
 def _node_score(pts, px, py, f, tp, tv, qp, qv, fl):
-    """``BlockGeometry.score`` for one node (free index ``f``) at (px, py): ``_tri_chunk`` / ``_quad_chunk``.
+    """``BlockGeometry.score`` for one node (free index ``f``) at (px, py): ``_rows.score_rows``.
 
     ``fl``: the input floors (``_floors.Floors``) as a (6, rows) array, or an empty one (no floors).
     """
@@ -176,7 +176,7 @@ def _node_score_rows(px, py, buf, fl, cut, lo0, hi0, strict):
     same cell, so most candidates that cannot win stop after one cell.
 
     ``lo0``, ``hi0``: an area band (``-inf``, ``inf``: none): ``-inf`` where an incident cell's signed
-    area (``_tri_area`` / ``_quad_area``, from the same products as the score) is outside
+    area (``_rows._row_area``, from the same products as the score) is outside
     [lo0, hi0], as :meth:`BlockGeometry.banded_score` gives, found in the same pass over the cells.
 
     ``strict``: the quad corners score ``_local.strict_quad`` (the same operations; ``compass`` asks
@@ -208,7 +208,7 @@ def _node_score_rows(px, py, buf, fl, cut, lo0, hi0, strict):
             v = min(v0, v1, v2)
             cr = ex1 * fy2 - ey1 * fx2
             if banded:
-                a = -0.5 * cr  # _tri_area exactly: fx2 = -(x2 - px), fy2 = -(y2 - py)
+                a = -0.5 * cr  # _rows._row_area exactly (triangles): fx2 = -(x2 - px), fy2 = -(y2 - py)
                 if not ((a >= lo0) & (a <= hi0)):
                     buf[hint, 0] = k
                     return -np.inf
@@ -234,7 +234,7 @@ def _node_score_rows(px, py, buf, fl, cut, lo0, hi0, strict):
             cm = max(a0, a1, a3, qc2)
             ok = (ex1 * ey3 - ey1 * ex3 > 0) & (uy * ex1 - ux * ey1 > 0) & (ex3 * vy - ey3 * vx > 0) & ok2
             if floors or banded:
-                a2 = (x1 + ux - px) * (y3 - y1) - (y1 + uy - py) * (x3 - x1)  # twice _quad_area
+                a2 = (x1 + ux - px) * (y3 - y1) - (y1 + uy - py) * (x3 - x1)  # twice _rows._row_area (quads)
                 if banded:
                     a = 0.5 * a2
                     if not ((a >= lo0) & (a <= hi0)):
@@ -278,7 +278,7 @@ def _node_score_rows(px, py, buf, fl, cut, lo0, hi0, strict):
 
 @njit(inline="always")
 def _node_area_range_rows(px, py, f, tp, qp, buf):
-    """``BlockGeometry.area_range`` for one node: ``_tri_area`` / ``_quad_area``, from the rows of
+    """``BlockGeometry.area_range`` for one node: ``_rows._row_area``, from the rows of
     :func:`_node_rows`."""
     lo = np.inf
     hi = -np.inf
