@@ -471,10 +471,10 @@ def step(
                         its[b], rad[b] = resume_iterations, resume_radius
             choice_max = new[worst] if held is not None and held.any() else None  # (a copy)
             new[worst], _ = optimize(sub, start, scale, its, rad, area_band, limits, strict, s_start)
-            _hold_strict(geom, blk, worst, strict, choice, new)
-            if choice_max is not None:  # keep_max (start: each search's start; optimize does not write it)
+            if choice_max is not None:  # keep_max, then keep_min on its result (the compiled order: both hold)
                 new[worst] = hold_max(sub, held, cur[worst], new[worst], choice_max, m_in, start, scale, its, rad,
                                       area_band, limits, strict)
+            _hold_strict(geom, blk, worst, strict, choice, new)
         return new, refused
 
     def _hold_strict(geom, blk, worst, strict, choice, new):
