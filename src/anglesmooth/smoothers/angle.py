@@ -445,13 +445,15 @@ def step(
                 strict = floors.keep[blk.nodes][worst]
                 if strict_above is not None:  # best: the plain score at the stage 1-2 choice, exact here
                     strict = strict & (best[worst] >= -np.cos(np.radians(strict_above)))
-            choice = new[worst] if strict is not None and s_in > -np.inf else None  # (a copy) stages 1-2's
             held = floors.keep[blk.nodes][worst] if m_in < np.inf else None  # keep_max's nodes
+            hold_min, hold_wide = strict is not None and s_in > -np.inf, held is not None and bool(held.any())
+            choice = new[worst] if hold_min or hold_wide else None  # (a copy) stages 1-2's: keep_min's, keep_max's
             if fast:  # the same search, one compiled loop (scale, resume test, compass, keep_max) per node
                 new[worst], _ = _fastcalls.angle_optimize(
                     pts, topo, blk, worst, new[worst], best[worst], opt_iterations, 0.25, area_band, _COMPASS, limits,
                     strict, floors, resume_iterations, resume_radius, -np.cos(np.radians(resume_above)), held, m_in)
-                _hold_strict(geom, blk, worst, strict, choice, new)
+                if hold_min:
+                    _hold_strict(geom, blk, worst, strict, choice, new)
                 return new, refused
             sub = geom.restrict(worst)
             scale = local_scale(pts, topo, blk, subset=worst)
@@ -469,20 +471,18 @@ def step(
                         start[b], s_start[b] = cur[worst[b]], s_c[np.searchsorted(q, b)]
                         its, rad = np.full(worst.size, opt_iterations), np.full(worst.size, 0.25)
                         its[b], rad[b] = resume_iterations, resume_radius
-            choice_max = new[worst] if held is not None and held.any() else None  # (a copy)
             new[worst], _ = optimize(sub, start, scale, its, rad, area_band, limits, strict, s_start)
-            if choice_max is not None:  # keep_max, then keep_min on its result (the compiled order: both hold)
-                new[worst] = hold_max(sub, held, cur[worst], new[worst], choice_max, m_in, start, scale, its, rad,
+            if hold_wide:  # keep_max, then keep_min on its result (the compiled order: both hold)
+                new[worst] = hold_max(sub, held, cur[worst], new[worst], choice, m_in, start, scale, its, rad,
                                       area_band, limits, strict)
-            _hold_strict(geom, blk, worst, strict, choice, new)
+            if hold_min:
+                _hold_strict(geom, blk, worst, strict, choice, new)
         return new, refused
 
     def _hold_strict(geom, blk, worst, strict, choice, new):
         """``keep_min`` in stage 4: the strict search maximizes another score than the local one (quad
         corners on the triangles' scale), so it may take a node's local score below the input's worst
         (its triangles traded for its quads); there the node keeps its stage 1-2 choice."""
-        if choice is None:
-            return
         z = worst[strict & _mixed(topo, blk)[worst]]  # (strict scores differ at nodes with both kinds only)
         if z.size:
             low = geom.restrict(z).score(new[z]) < s_in
