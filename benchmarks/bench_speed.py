@@ -256,7 +256,7 @@ class _Timeline:
 def worker_breakdown(npz: str, repeat: int) -> dict:
     """Literal and default ``angle`` passes, and where the default pass's time goes, in one process.
 
-    The functions ``angle.step`` calls are wrapped (in its module namespace) so that each stage's
+    The functions ``angle.step`` calls are wrapped (in the namespaces of its modules) so that each stage's
     time is charged to it: ``angle target`` (the angle positions), ``geometry`` (gathering the fixed
     vertices of every incident cell of the block), ``scoring`` (the local score of the angle
     positions and the stage-1 acceptance), ``stage 2`` (the Laplacian position and the best of five
@@ -267,6 +267,7 @@ def worker_breakdown(npz: str, repeat: int) -> dict:
     """
     from anglesmooth.mesh import Mesh2D
     from anglesmooth.smoothers import _fast
+    from anglesmooth.smoothers import _choose, _worst
     from anglesmooth.smoothers import angle as angle_mod
     from anglesmooth.smoothers._floors import input_floors
     from anglesmooth.topology import build_topology
@@ -295,8 +296,11 @@ def worker_breakdown(npz: str, repeat: int) -> dict:
     default = passes(floors=floors)
     # the same default passes again, with every stage timed
     tl = _Timeline()
-    saved = {k: getattr(angle_mod, k) for k in ("angle_target", "geometry", "laplacian_target", "first_valid",
-                                                   "local_scale", "optimize", "_per_node", "run_blocks", "np")}
+    # the modules of the pass (angle.step, stages 1-3 in _choose, stage 4 in _worst) that call each function
+    homes = {"angle_target": (angle_mod, _choose), "geometry": (angle_mod,), "laplacian_target": (_choose,),
+             "first_valid": (angle_mod, _choose), "local_scale": (_worst,), "optimize": (_worst,),
+             "_per_node": (_choose, _worst), "run_blocks": (angle_mod,), "np": (angle_mod, _choose, _worst)}
+    saved = {k: getattr(mods[0], k) for k, mods in homes.items()}
     calls_mod = _entry_points()
     saved_choose = calls_mod.angle_choose
     calls = {"per_node": 0}
@@ -306,7 +310,7 @@ def worker_breakdown(npz: str, repeat: int) -> dict:
         tl.switch("scoring" if calls["per_node"] % 2 else "optimization")
         return saved["_per_node"](*args)
 
-    class _NumpyProxy:  # angle.np with argpartition (the choice of the worst nodes) charged to optimization
+    class _NumpyProxy:  # the modules' np with argpartition (the choice of the worst nodes) charged to optimization
         def __getattr__(self, name):
             return getattr(np, name)
 
@@ -339,7 +343,8 @@ def worker_breakdown(npz: str, repeat: int) -> dict:
     }
     try:
         for k, v in patched.items():
-            setattr(angle_mod, k, v)
+            for m in homes[k]:
+                setattr(m, k, v)
         calls_mod.angle_choose = tl.wrap(saved_choose, "choose (fused)")
         staged = []
         pts = pts0.copy()
@@ -355,7 +360,8 @@ def worker_breakdown(npz: str, repeat: int) -> dict:
             per_pass.append({k: tl.acc[k] - before[k] for k in BREAKDOWN})
     finally:
         for k, v in saved.items():
-            setattr(angle_mod, k, v)
+            for m in homes[k]:
+                setattr(m, k, v)
         calls_mod.angle_choose = saved_choose
     stages = {k: statistics.median(p[k] for p in per_pass) for k in BREAKDOWN}
     lit, dflt = statistics.median(literal), statistics.median(default)

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "anglesmooth"
-PACKAGES = ("quality", "gmshfile", "generate", "_paths")
+PACKAGES = ("quality", "gmshfile", "generate", "_paths", "smoothers")
 MODULES = sorted(
     ".".join(("anglesmooth", *p.relative_to(SRC).with_suffix("").parts)).removesuffix(".__init__")
     for pkg in PACKAGES for p in (SRC / pkg).glob("*.py")

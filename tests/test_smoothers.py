@@ -338,7 +338,7 @@ def test_stuck_nodes_take_the_guarded_laplacian_move_as_the_reference_does(free_
     The numpy kernels are pinned: the call count below spies on their stage 3 (``first_valid``),
     which the compiled ``angle_choose`` does inside the kernel (``ANGLESMOOTH_KERNEL=numba`` would
     bypass the spy); the compiled stage 3 is checked against numpy in tests/test_kernels.py."""
-    import anglesmooth.smoothers.angle as angle_mod
+    import anglesmooth.smoothers._choose as choose_mod  # (stage 3's module)
 
     monkeypatch.setenv("ANGLESMOOTH_KERNEL", "numpy")
 
@@ -349,8 +349,8 @@ def test_stuck_nodes_take_the_guarded_laplacian_move_as_the_reference_does(free_
     mesh = m.with_points(p)
     topo = build_topology(mesh)
     calls = []
-    real = angle_mod.first_valid
-    monkeypatch.setattr(angle_mod, "first_valid", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = choose_mod.first_valid
+    monkeypatch.setattr(choose_mod, "first_valid", lambda *a, **k: calls.append(1) or real(*a, **k))
     q = r = mesh.points
     for _ in range(3):
         q = get_smoother("angle").step(q, topo, opt_iterations=0, patch_cells=0).points
@@ -758,6 +758,7 @@ def test_strict_quads_only_where_the_node_still_scores_strict_above(monkeypatch)
     get far from right angles, and the strict score then traded a triangle corner for a quad corner the
     minimum angle does not see (seed 9: 22.5 -> 16.8 deg in one step).  The nodes that stage 4 scores
     strictly, every block of 10 passes, against the per-node reference; both kernels give the same points."""
+    from anglesmooth.smoothers import _worst
     from anglesmooth.smoothers import angle as angle_mod
     from anglesmooth.smoothers._floors import input_floors
 
@@ -766,7 +767,7 @@ def test_strict_quads_only_where_the_node_still_scores_strict_above(monkeypatch)
     topo = build_topology(mesh)
     floors = input_floors(np.array(mesh.points), topo)
     seen, state = [], {}
-    run_blocks, local_scale, optimize = angle_mod.run_blocks, angle_mod.local_scale, angle_mod.optimize
+    run_blocks, local_scale, optimize = angle_mod.run_blocks, _worst.local_scale, _worst.optimize  # (stage 4's)
 
     def rb(points, topo_, order, update, current=True):
         def upd(out, blk, cur):
@@ -785,8 +786,8 @@ def test_strict_quads_only_where_the_node_still_scores_strict_above(monkeypatch)
         return optimize(geom, x, scale, *args, **kw)
 
     monkeypatch.setattr(angle_mod, "run_blocks", rb)
-    monkeypatch.setattr(angle_mod, "local_scale", ls)
-    monkeypatch.setattr(angle_mod, "optimize", opt)
+    monkeypatch.setattr(_worst, "local_scale", ls)
+    monkeypatch.setattr(_worst, "optimize", opt)
     p = mesh.points
     for _ in range(10):
         p = angle_mod.step(p, topo, floors=floors).points

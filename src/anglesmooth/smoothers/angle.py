@@ -154,6 +154,12 @@ The robust default (``guard=True``)
     Figures: the quality matrix in README and
     ``benchmarks/quality_matrix.py``.
 
+Where the code is: :func:`step` (this module) runs the pass block by block;
+stages 1-3 are :func:`._choose.chooser`, stage 4
+:func:`._worst.worst_optimizer` (and its holds, ``keep_max`` then
+``keep_min``), stage 5 :mod:`._patch`; their compiled twins are
+``_fastkernels.angle_choose`` and ``angle_optimize``.
+
 >>> import numpy as np
 >>> from anglesmooth.generate import structured_triangles
 >>> from anglesmooth.topology import build_topology
@@ -173,47 +179,13 @@ import numpy as np
 from ..topology import Topology, signed_areas
 from . import _fast, _fastcalls
 from ._blocks import StepResult, run_blocks, with_area_range
+from ._choose import chooser
 from ._floors import Floors
-from ._keepmax import capped_argmax, hold_max
-from ._local import _COMPASS, INVALID, angle_target, first_valid, geometry, laplacian_target, local_scale, optimize
+from ._local import angle_target, first_valid, geometry
 from ._patch import patch_moves
+from ._worst import worst_optimizer
 
 __all__ = ["step"]
-
-
-def _per_node(topo: Topology, blk, tri_deg: float, quad_deg: float) -> np.ndarray:
-    """Score threshold of each block node: ``tri_deg`` for nodes of triangles only, ``quad_deg`` for nodes of a quad.
-
-    Thresholds relative to the ideal angle (60 deg for triangles, 90 for quads) mean the same for
-    both; a node with both kinds of cell uses the quad's (its quad corners are the ones judged on
-    ``min(angle, 180 - angle)``).  Cached per block (topology only).
-    """
-    key = ("angle-thresholds", blk.nodes.start, blk.nodes.stop, float(tri_deg), float(quad_deg))
-    hit = topo._cache.get(key)
-    if hit is None:
-        hasq = np.bincount(topo.quad_loc[blk.quads] - blk.nodes.start, minlength=blk.size) > 0
-        lo, hi = -np.cos(np.radians(tri_deg)), -np.cos(np.radians(quad_deg))
-        hit = topo._cache[key] = np.where(hasq, hi, lo)
-    return hit
-
-
-def _quads_only(topo: Topology, blk) -> np.ndarray:
-    """Per block node: it has no triangle (cached per block, topology only)."""
-    key = ("angle-quads-only", blk.nodes.start, blk.nodes.stop)
-    hit = topo._cache.get(key)
-    if hit is None:
-        hit = topo._cache[key] = np.bincount(topo.tri_loc[blk.tris] - blk.nodes.start, minlength=blk.size) == 0
-    return hit
-
-
-def _mixed(topo: Topology, blk) -> np.ndarray:
-    """Per block node: it has both a triangle and a quad (cached per block, topology only)."""
-    key = ("angle-mixed", blk.nodes.start, blk.nodes.stop)
-    hit = topo._cache.get(key)
-    if hit is None:
-        hasq = np.bincount(topo.quad_loc[blk.quads] - blk.nodes.start, minlength=blk.size) > 0
-        hit = topo._cache[key] = hasq & ~_quads_only(topo, blk)
-    return hit
 
 
 def step(
@@ -353,72 +325,15 @@ def step(
     if keep_max and any_keep and floors.largest_max < -np.cos(np.radians(keep_max_below)):
         m_in = max(float(floors.largest_max), 0.0)
 
-    def choose(pts, blk, cur, geom):
-        """Stages 1 and 2: (positions, their local scores, number of invalid angle positions, None or the
-        nodes whose score is ``inf`` instead: certainly not below the optimization threshold)."""
-        good = _per_node(topo, blk, accept_above, accept_above_quad)
-        if good.size and s_in > good.min():  # never accept below the input's worst (a fresh array: cached)
-            good = np.maximum(good, s_in)
-        keep = None
-        if floors is not None:
-            keep = floors.keep[blk.nodes]
-            keep = keep if keep.any() else None
-        if fast:  # the same choice, fused per node in a compiled loop
-            # nodes certainly above every optimization threshold of the block need no exact score (the
-            # highest: a mixed block orders its triangle and quad nodes together)
-            certify = None
-            if opt_iterations > 0 and not (floors is not None and floors.active):
-                below = _per_node(topo, blk, opt_below, opt_below_quad)
-                certify = np.full(blk.size, below.max() if below.size else -np.inf)
-            new, best, refused, lazy = _fastcalls.angle_choose(pts, topo, blk, good, floors, keep, nearest, certify,
-                                                               cap=m_in)
-            return new, best, int(refused.sum()), lazy
-        target = angle_target(pts, topo, blk)
-        s_a = geom.score(target)
-        refused = int((s_a <= INVALID + 0.5).sum())
-        # stage 1: where the angle position is good enough, take it (even when staying scores higher;
-        # nodes whose input cells were all well shaped only when it is no worse than staying)
-        new, best = target, s_a
-        take = s_a >= good
-        if keep is not None:
-            k = np.flatnonzero(keep & take)
-            if k.size:
-                g = geom.restrict(k)
-                # no worse than staying, nor its largest moving corner opened beyond staying's (or 90 deg)
-                m_a = g.largest(target[k])
-                take[k] = (s_a[k] >= g.score(cur[k])) & ((m_a <= g.largest(cur[k])) | (m_a <= 0.0))
-        rest = np.flatnonzero(~take)
-        if rest.size:
-            # stage 2: the others choose among all five candidates (the first best wins)
-            lap = laplacian_target(pts, topo, blk, subset=rest)
-            t, c = target[rest], cur[rest]
-            sub = geom if rest.size == blk.size else geom.restrict(rest)
-            extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c), c])
-            s = np.concatenate([s_a[None, rest], sub.score(extra)])
-            cands = np.concatenate([t[None], extra])
-            # (keep_max: at the nodes of well-shaped input cells, only the candidates within its cap)
-            k = np.argmax(s, 0) if m_in == np.inf or keep is None else capped_argmax(sub, keep[rest], cands, s, m_in)
-            if nearest:
-                # the candidate nearest A among those good enough (not A itself: it was not taken,
-                # nor for the nodes of well-shaped input cells, which keep the best)
-                dx, dy = cands[1:, :, 0] - t[None, :, 0], cands[1:, :, 1] - t[None, :, 1]
-                ok = s[1:] >= good[rest][None]
-                if keep is not None:
-                    ok &= ~keep[rest][None]
-                near = 1 + np.argmin(np.where(ok, dx * dx + dy * dy, np.inf), axis=0)
-                k = np.where(ok.any(axis=0), near, k)
-            idx = np.arange(rest.size)
-            new, best = target.copy(), s_a.copy()
-            new[rest], best[rest] = cands[k, idx], s[k, idx]
-            # stage 3: where every move (full or half) is invalid and staying is not, the guarded
-            # Laplacian move (halved until valid): the way out of a flattened cell whose free
-            # corners block each other
-            stuck = np.flatnonzero((s[:4] <= INVALID + 0.5).all(axis=0) & (s[4] > INVALID + 0.5))
-            if stuck.size:
-                g3 = sub.restrict(stuck)
-                x, _ = first_valid(g3, c[stuck], lap[stuck])
-                new[rest[stuck]], best[rest[stuck]] = x, g3.score(x)
-        return new, best, refused, None
+    # stages 1-3 (._choose), then stage 4 (._worst): this pass's settings, once
+    choose = chooser(topo, fast=fast, floors=floors, s_in=s_in, m_in=m_in, accept_above=accept_above,
+                     accept_above_quad=accept_above_quad, nearest=nearest, opt_iterations=opt_iterations,
+                     opt_below=opt_below, opt_below_quad=opt_below_quad)
+    optimize_worst = worst_optimizer(
+        topo, fast=fast, floors=floors, any_keep=any_keep, s_in=s_in, m_in=m_in, limits=limits,
+        opt_fraction=opt_fraction, opt_iterations=opt_iterations, opt_below=opt_below, opt_below_quad=opt_below_quad,
+        area_band=area_band, strict_quads=strict_quads, strict_above=strict_above,
+        resume_iterations=resume_iterations, resume_radius=resume_radius, resume_above=resume_above)
 
     def update(pts, blk, cur):
         if not guard:
@@ -428,65 +343,7 @@ def step(
             new, refused = first_valid(geom, cur, angle_target(pts, topo, blk))
             return new, refused.sum()
         new, best, refused, lazy = choose(pts, blk, cur, geom)
-        idx = np.arange(blk.size)
-        n_opt = int(np.ceil(opt_fraction * blk.size)) if opt_iterations > 0 else 0
-        if n_opt:
-            below = _per_node(topo, blk, opt_below, opt_below_quad)
-            if lazy is not None and n_opt < blk.size and lazy.any() and (best < below).sum() > n_opt:
-                v = np.partition(best, [n_opt - 1, n_opt])
-                if v[n_opt - 1] == v[n_opt]:  # a tie where argpartition cuts: its pick depends on every score
-                    z = np.flatnonzero(lazy)
-                    best[z] = geom.restrict(z).score(new[z])
-            worst = np.argpartition(best, n_opt - 1)[:n_opt] if n_opt < blk.size else idx
-            worst = np.sort(worst[best[worst] < below[worst]])
-        if n_opt and worst.size:
-            strict = None
-            if strict_quads and any_keep:
-                strict = floors.keep[blk.nodes][worst]
-                if strict_above is not None:  # best: the plain score at the stage 1-2 choice, exact here
-                    strict = strict & (best[worst] >= -np.cos(np.radians(strict_above)))
-            held = floors.keep[blk.nodes][worst] if m_in < np.inf else None  # keep_max's nodes
-            hold_min, hold_wide = strict is not None and s_in > -np.inf, held is not None and bool(held.any())
-            choice = new[worst] if hold_min or hold_wide else None  # (a copy) stages 1-2's: keep_min's, keep_max's
-            if fast:  # the same search, one compiled loop (scale, resume test, compass, keep_max) per node
-                new[worst], _ = _fastcalls.angle_optimize(
-                    pts, topo, blk, worst, new[worst], best[worst], opt_iterations, 0.25, area_band, _COMPASS, limits,
-                    strict, floors, resume_iterations, resume_radius, -np.cos(np.radians(resume_above)), held, m_in)
-                if hold_min:
-                    _hold_strict(geom, blk, worst, strict, choice, new)
-                return new, refused
-            sub = geom.restrict(worst)
-            scale = local_scale(pts, topo, blk, subset=worst)
-            start, its, rad, s_start = new[worst], opt_iterations, 0.25, best[worst]  # best: exact at new
-            if resume_iterations > 0:
-                # a quad node that scores higher staying (optimized in the previous pass, pulled back by
-                # stages 1-2) and is already good there resumes the search from there, finer and longer
-                # (scored at the quad-only nodes alone: the others never resume); one search for all
-                # (per-node steps and radii: the numbers of two separate searches)
-                q = np.flatnonzero(_quads_only(topo, blk)[worst])
-                if q.size:
-                    s_c = (sub if q.size == worst.size else sub.restrict(q)).score(cur[worst[q]])
-                    b = q[(s_c > best[worst[q]]) & (s_c >= -np.cos(np.radians(resume_above)))]
-                    if b.size:
-                        start[b], s_start[b] = cur[worst[b]], s_c[np.searchsorted(q, b)]
-                        its, rad = np.full(worst.size, opt_iterations), np.full(worst.size, 0.25)
-                        its[b], rad[b] = resume_iterations, resume_radius
-            new[worst], _ = optimize(sub, start, scale, its, rad, area_band, limits, strict, s_start)
-            if hold_wide:  # keep_max, then keep_min on its result (the compiled order: both hold)
-                new[worst] = hold_max(sub, held, cur[worst], new[worst], choice, m_in, start, scale, its, rad,
-                                      area_band, limits, strict)
-            if hold_min:
-                _hold_strict(geom, blk, worst, strict, choice, new)
-        return new, refused
-
-    def _hold_strict(geom, blk, worst, strict, choice, new):
-        """``keep_min`` in stage 4: the strict search maximizes another score than the local one (quad
-        corners on the triangles' scale), so it may take a node's local score below the input's worst
-        (its triangles traded for its quads); there the node keeps its stage 1-2 choice."""
-        z = worst[strict & _mixed(topo, blk)[worst]]  # (strict scores differ at nodes with both kinds only)
-        if z.size:
-            low = geom.restrict(z).score(new[z]) < s_in
-            new[z[low]] = choice[np.searchsorted(worst, z[low])]
+        return optimize_worst(pts, blk, cur, geom, new, best, lazy), refused
 
     # the literal rule and the compiled default read no current positions (their kernels do)
     res = run_blocks(points, topo, order, update, current=guard and not fast)
