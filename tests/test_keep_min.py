@@ -112,3 +112,49 @@ def test_kernels_agree_when_the_input_minimum_is_above_the_optimization_threshol
         out[kernel] = smooth(mesh, "angle", 4).points
     np.testing.assert_array_equal(out["numpy"], out["numba"])
     assert _free_min_deg(out["numpy"], topo) >= s_in - 1e-9
+
+
+def test_both_kernels_hold_stage_4_at_the_input_minimum_the_same_way():
+    """Stage 4's ``keep_min`` hold, compiled inside ``angle_optimize`` (after keep_max's) and in numpy in
+    ``_worst.hold`` (after ``hold_max``): every node of each block optimized from where it is, with a floor
+    ``s_in`` high enough that some strict nodes (both triangles and quads) end below it.  Both kernels put the
+    same nodes back to their start, bit for bit, with keep_max on and off; without the floor they do not."""
+    from anglesmooth.smoothers import _worst
+    from anglesmooth.smoothers._fastcalls import FastGeometry
+    from anglesmooth.smoothers._local import BlockGeometry
+
+    mesh = read(DROPS / "gmsh_bl_41b_r9.msh")
+    topo = build_topology(mesh)
+    pts = np.array(mesh.points)
+    floors = input_floors(pts, topo)
+    m_cap = max(float(floors.largest_max), 0.0)
+    opts = dict(floors=floors, any_keep=True, limits=None, opt_fraction=1.0, opt_iterations=4, opt_below=180.0,
+                opt_below_quad=180.0, area_band=0.8, strict_quads=True, strict_above=None, resume_iterations=0,
+                resume_radius=0.0625, resume_above=45.0)
+    held = 0
+    for blk in topo.blocks():
+        cur = pts[topo.free_nodes[blk.nodes]]
+        best = BlockGeometry(pts, topo, blk, floors=floors).score(cur)
+        mixed = (np.bincount(topo.tri_loc[blk.tris] - blk.nodes.start, minlength=blk.size) > 0) & (
+            np.bincount(topo.quad_loc[blk.quads] - blk.nodes.start, minlength=blk.size) > 0)
+        strict = mixed & floors.keep[blk.nodes]
+        if not strict.any():
+            continue
+        s_in = float(np.median(best[strict]))  # (-cos) some strict nodes below it, some above
+        for m_in in (np.inf, m_cap):
+            out = {}
+            for fast in (False, True):
+                geom = (FastGeometry if fast else BlockGeometry)(pts, topo, blk, floors=floors)
+                for s in (-np.inf, s_in):
+                    stage4 = _worst.worst_optimizer(topo, fast=fast, s_in=s, m_in=m_in, **opts)
+                    out[fast, s] = stage4(pts, blk, cur, geom, cur.copy(), best.copy(), None)
+            for s in (-np.inf, s_in):
+                np.testing.assert_array_equal(out[False, s], out[True, s])
+            # the strict nodes whose result (keep_max's, where it acts) is below the floor keep their start,
+            # every other node its result
+            after = BlockGeometry(pts, topo, blk, floors=floors).score(out[False, -np.inf])
+            low = strict & (after < s_in)
+            np.testing.assert_array_equal(out[False, s_in][low], cur[low])
+            np.testing.assert_array_equal(out[False, s_in][~low], out[False, -np.inf][~low])
+            held += int((out[False, s_in] != out[False, -np.inf]).any(axis=1).sum())
+    assert held > 0

@@ -232,12 +232,13 @@ def angle_choose(points: np.ndarray, topo, blk, good, floors=None, keep=None, ne
 def angle_optimize(points: np.ndarray, topo, blk, worst, x, best, iterations: int, radius: float,
                    area_band: float | None, directions: np.ndarray, area_limits=None, strict=None, floors=None,
                    resume_iterations: int = 0, resume_radius: float = 0.0, resume_above: float = np.inf,
-                   keep=None, cap=None):
+                   keep=None, cap=None, score_min=-np.inf):
     """Stage 4 of the robust ``angle`` update for the block-local nodes ``worst`` (see :func:`.angle.step`),
     one compiled loop: their local scale, the resume test of quad-only nodes and the compass search
     (``resume_above``: the score, not the angle); ``keep`` (None or a bool per node of ``worst``) and ``cap``
-    (None or a ``-cos``): ``keep_max`` (see ``_fastkernels.angle_optimize``).  Returns (positions, scores): the numbers of
-    :func:`local_scale`, :meth:`FastGeometry.score` and two :meth:`FastGeometry.compass` calls."""
+    (None or a ``-cos``): ``keep_max``; ``score_min`` (-inf: none): ``keep_min`` on its result, at the ``strict``
+    nodes (see ``_fastkernels.angle_optimize``).  Returns (positions, scores): the numbers of :func:`local_scale`,
+    :meth:`FastGeometry.score` and two :meth:`FastGeometry.compass` calls, and of :func:`._worst.hold`."""
     rp, _, tp, qp = _csr(topo)
     band = -1.0 if area_band is None else float(area_band)
     lo, hi = (-np.inf, np.inf) if area_limits is None else (float(area_limits[0]), float(area_limits[1]))
@@ -248,7 +249,7 @@ def angle_optimize(points: np.ndarray, topo, blk, worst, x, best, iterations: in
         np.zeros(0, np.bool_) if strict is None else np.ascontiguousarray(strict, dtype=np.bool_),
         int(resume_iterations), float(resume_radius), float(resume_above),
         np.zeros(0, np.bool_) if keep is None or cap is None else np.ascontiguousarray(keep, dtype=np.bool_),
-        np.inf if cap is None else float(cap),
+        np.inf if cap is None else float(cap), float(score_min),
     )
 
 

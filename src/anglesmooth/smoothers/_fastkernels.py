@@ -1,7 +1,7 @@
 """The numba kernels behind :mod:`._fast` (imported only when they are used).
 
 Each per-node helper (``_node_*``) mirrors, operation for operation, the numpy
-code it replaces in :mod:`._local` or :mod:`.angle` (named in its docstring);
+code it replaces in :mod:`._local`, :mod:`._choose` or :mod:`._worst` (named in its docstring);
 keep the two in step.  The exported kernels loop over the nodes they are
 given (``prange``, compiled serially): a node reads the shared points and
 writes only its own outputs, so :func:`._fast._run` runs them on several
@@ -202,7 +202,7 @@ def ring_mean(pts, nodes, free, rp, nbr, lengths):
 @_kernel
 def angle_choose(pts, nodes, free, sp, ring, sa, sb, frac, sap, rp, nbr, tp, tv, qp, qv, good, fl, flnode, keep, nearest,
                  certify, cap):
-    """Stages 1 and 2 of the robust ``angle`` update (``angle.step``), fused per node.
+    """Stages 1 and 2 of the robust ``angle`` update (``angle.step``; numpy: ``_choose.chooser``), fused per node.
 
     ``good`` is the per-node acceptance threshold; where ``keep`` (empty: nowhere) the angle position
     must also be no worse than staying, nor open its widest moving corner beyond staying's or 90 deg
@@ -363,8 +363,8 @@ def compass(pts, x, nodes, tp, tv, qp, qv, scale, iterations, radius, band, dire
 
 @_kernel
 def angle_optimize(pts, x, nodes, free, rp, nbr, tp, tv, qp, qv, best, iterations, radius, band, directions, fl,
-                   alo, ahi, strict, resume_iterations, resume_radius, resume_above, keep, cap):
-    """Stage 4 of the robust ``angle`` update (``angle.step``) for its worst nodes, fused per node: the
+                   alo, ahi, strict, resume_iterations, resume_radius, resume_above, keep, cap, s_min):
+    """Stage 4 of the robust ``angle`` update (``angle.step``; numpy: ``_worst``) for its worst nodes, fused per node: the
     local scale (``local_scale``), the resume test of a quad-only node (staying scores above ``best``,
     its stage 1-2 score, and at least ``resume_above``: ``resume_iterations`` steps from there from
     ``resume_radius``; ``resume_iterations`` 0: never) and else the compass search from ``x`` (the
@@ -373,7 +373,9 @@ def angle_optimize(pts, x, nodes, free, rp, nbr, tp, tv, qp, qv, best, iteration
     node is strict).  The same numbers as ``local_scale``, ``score`` and two ``compass`` calls.  ``keep``
     (per node, empty: none) and ``cap`` (inf: none): ``keep_max``, a node of ``keep`` whose result opens a
     moving corner beyond ``cap_i = max(cap, its widest at its current position)`` (``-cos``) searches again
-    from the same start with positions beyond ``cap_i`` refused, and keeps ``x`` where even that result is."""
+    from the same start with positions beyond ``cap_i`` refused, and keeps ``x`` where even that result is.
+    ``s_min`` (-inf: none): ``keep_min``, then, on that result: a strict node with both triangles and quads whose
+    (plain) score there is below ``s_min`` keeps ``x`` (``_worst.hold``'s order and numbers)."""
     n = nodes.shape[0]
     out = np.empty((n, 2))
     s_out = np.empty(n)
@@ -404,4 +406,7 @@ def angle_optimize(pts, x, nodes, free, rp, nbr, tp, tv, qp, qv, best, iteration
                     out[i, 0], out[i, 1], s_out[i] = qx, qy, qs
                 else:
                     out[i, 0], out[i, 1], s_out[i] = x[i, 0], x[i, 1], best[i]
+        if st and s_min > -np.inf and qp[f + 1] > qp[f]:  # keep_min, on keep_max's result
+            if _node_score_rows(out[i, 0], out[i, 1], buf, fl, -np.inf, -np.inf, np.inf, _NOT_STRICT) < s_min:
+                out[i, 0], out[i, 1], s_out[i] = x[i, 0], x[i, 1], best[i]
     return out, s_out

@@ -3,7 +3,7 @@ position that opens a corner beyond a cap.
 
 The compass search (:func:`._compass.optimize`) maximizes the smallest angle, which cannot see a node's
 widest corner open: at a node of well-shaped input cells (``floors.keep``) whose search result opens a
-corner it moves beyond ``max(its widest when staying, the input's widest)``, ``angle.step`` runs the search
+corner it moves beyond ``max(its widest when staying, the input's widest)``, :func:`._worst.hold` runs the search
 again from the same start with :class:`Capped`, a geometry whose scores are ``-inf`` wherever a candidate
 opens a corner beyond that cap (the compiled twin: ``_fastkernels._node_compass``'s ``cap``).  Only
 those few nodes pay for it.

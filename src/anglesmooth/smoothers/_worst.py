@@ -7,8 +7,10 @@ After stages 1-3 (:mod:`._choose`), the worst ``opt_fraction`` of the block's no
 there.  Two holds then act on the search's result, in this order: ``keep_max`` (a node of well-shaped input cells
 whose result opens a corner beyond its cap searches again with such positions refused, :mod:`._keepmax`, else keeps
 its stage 1-2 choice), then ``keep_min`` on that result (a strict node of both kinds of cell that ends below the
-input's worst local score keeps its stage 1-2 choice).  With the compiled kernels the scale, resume test, search
-and ``keep_max`` are one loop per node (``_fastkernels.angle_optimize``, via :func:`._fastcalls.angle_optimize`).
+input's worst local score keeps its stage 1-2 choice).  Both holds sit at one depth per kernel: with the compiled
+kernels the scale, resume test, search, ``keep_max`` and ``keep_min`` are one loop per node
+(``_fastkernels.angle_optimize``, via :func:`._fastcalls.angle_optimize`); with numpy, :func:`hold` applies the
+two after the search, in the same order with the same numbers.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from ._keepmax import hold_max
 from ._local import _COMPASS, local_scale, optimize
 from ._nodekinds import _mixed, _per_node, _quads_only
 
-__all__ = ["worst_optimizer"]
+__all__ = ["hold", "worst_optimizer"]
 
 
 def worst_optimizer(topo, *, fast, floors, any_keep, s_in, m_in, limits, opt_fraction, opt_iterations, opt_below,
@@ -53,15 +55,13 @@ def worst_optimizer(topo, *, fast, floors, any_keep, s_in, m_in, limits, opt_fra
                 if strict_above is not None:  # best: the plain score at the stage 1-2 choice, exact here
                     strict = strict & (best[worst] >= -np.cos(np.radians(strict_above)))
             held = floors.keep[blk.nodes][worst] if m_in < np.inf else None  # keep_max's nodes
-            hold_min, hold_wide = strict is not None and s_in > -np.inf, held is not None and bool(held.any())
-            choice = new[worst] if hold_min or hold_wide else None  # (a copy) stages 1-2's: keep_min's, keep_max's
-            if fast:  # the same search, one compiled loop (scale, resume test, compass, keep_max) per node
+            if fast:  # the same search, one compiled loop (scale, resume test, compass, keep_max, keep_min) per node
                 new[worst], _ = _fastcalls.angle_optimize(
                     pts, topo, blk, worst, new[worst], best[worst], opt_iterations, 0.25, area_band, _COMPASS, limits,
-                    strict, floors, resume_iterations, resume_radius, -np.cos(np.radians(resume_above)), held, m_in)
-                if hold_min:
-                    _hold_strict(geom, blk, worst, strict, choice, new)
+                    strict, floors, resume_iterations, resume_radius, -np.cos(np.radians(resume_above)), held, m_in,
+                    s_in)
                 return new
+            choice = new[worst]  # (a copy) stages 1-2's, where the holds put a node back
             sub = geom.restrict(worst)
             scale = local_scale(pts, topo, blk, subset=worst)
             start, its, rad, s_start = new[worst], opt_iterations, 0.25, best[worst]  # best: exact at new
@@ -79,20 +79,32 @@ def worst_optimizer(topo, *, fast, floors, any_keep, s_in, m_in, limits, opt_fra
                         its, rad = np.full(worst.size, opt_iterations), np.full(worst.size, 0.25)
                         its[b], rad[b] = resume_iterations, resume_radius
             new[worst], _ = optimize(sub, start, scale, its, rad, area_band, limits, strict, s_start)
-            if hold_wide:  # keep_max, then keep_min on its result (the compiled order: both hold)
-                new[worst] = hold_max(sub, held, cur[worst], new[worst], choice, m_in, start, scale, its, rad,
-                                      area_band, limits, strict)
-            if hold_min:
-                _hold_strict(geom, blk, worst, strict, choice, new)
+            hold(geom, sub, topo, blk, worst, cur, new, choice, strict, held, s_in, m_in, start, scale, its, rad,
+                 area_band, limits)
         return new
 
-    def _hold_strict(geom, blk, worst, strict, choice, new):
-        """``keep_min`` in stage 4: the strict search maximizes another score than the local one (quad
-        corners on the triangles' scale), so it may take a node's local score below the input's worst
-        (its triangles traded for its quads); there the node keeps its stage 1-2 choice."""
+    return optimize_worst
+
+
+def hold(geom, sub, topo, blk, worst, cur, new, choice, strict, held, s_in, m_in, start, scale, its, rad, area_band,
+         limits):
+    """Stage 4's two holds (numpy kernels) on the search's results ``new[worst]`` (written in place), in the order
+    of the compiled ``_fastkernels.angle_optimize``: ``keep_max`` (``held``: its nodes among ``worst``, or None;
+    ``m_in``: its cap), then ``keep_min`` on that result (``strict``: the strict nodes among ``worst``, or None;
+    ``s_in``: the input's worst local score, -inf: none), so that a capped result below the input's worst keeps
+    the stage 1-2 choice ``choice`` too.  ``geom``: the block's geometry, ``sub`` its restriction to ``worst``;
+    ``start``, ``scale``, ``its``, ``rad``, ``area_band``, ``limits``: the search's, for keep_max's search again.
+
+    ``keep_max``: a node of well-shaped input cells whose result opens a corner it moves beyond ``max(its widest
+    at cur, m_in)`` searches again refusing such positions, else keeps its choice (:func:`._keepmax.hold_max`).
+    ``keep_min``: the strict search maximizes another score than the local one (quad corners on the triangles'
+    scale), so it may take a node's local score below the input's worst (its triangles traded for its quads);
+    there the node keeps its stage 1-2 choice."""
+    if held is not None and bool(held.any()):  # keep_max
+        new[worst] = hold_max(sub, held, cur[worst], new[worst], choice, m_in, start, scale, its, rad,
+                              area_band, limits, strict)
+    if strict is not None and s_in > -np.inf:  # keep_min, on keep_max's result
         z = worst[strict & _mixed(topo, blk)[worst]]  # (strict scores differ at nodes with both kinds only)
         if z.size:
             low = geom.restrict(z).score(new[z]) < s_in
             new[z[low]] = choice[np.searchsorted(worst, z[low])]
-
-    return optimize_worst

@@ -156,9 +156,10 @@ The robust default (``guard=True``)
 
 Where the code is: :func:`step` (this module) runs the pass block by block;
 stages 1-3 are :func:`._choose.chooser`, stage 4
-:func:`._worst.worst_optimizer` (and its holds, ``keep_max`` then
-``keep_min``), stage 5 :mod:`._patch`; their compiled twins are
-``_fastkernels.angle_choose`` and ``angle_optimize``.
+:func:`._worst.worst_optimizer` (its holds, ``keep_max`` then ``keep_min``:
+:func:`._worst.hold`), stage 5 :mod:`._patch`; their compiled twins are
+``_fastkernels.angle_choose`` and ``angle_optimize`` (the search and both
+holds, in the same order).
 
 >>> import numpy as np
 >>> from anglesmooth.generate import structured_triangles
