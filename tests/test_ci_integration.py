@@ -118,7 +118,7 @@ def test_gate_values_print_with_enough_digits_to_differ(name, value, threshold, 
 
 
 def test_worst_cell_is_the_cell_with_the_smallest_angle():
-    """Against a per-cell loop with acos (tests/reference.py) on a valid mesh."""
+    """Against a per-cell loop with acos (tests/reference/) on a valid mesh."""
     mesh = paper_mixed_mesh(seed=3, n_interior=60, per_side=6)
     topo = build_topology(mesh)
     p = mesh.points.tolist()
