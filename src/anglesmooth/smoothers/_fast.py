@@ -146,7 +146,7 @@ PER_NODE = {"nodes": 0, "x": 0, "X": 1, "scale": 0}
 SHARED = {"pts", "free", "sp", "ring", "sa", "sb", "frac", "sap", "rp", "nbr", "tp", "tv", "qp", "qv", "directions", "fl",
           "flnode"}
 SCALARS = {"lengths", "good", "iterations", "radius", "band", "keep", "nearest", "alo", "ahi", "strict", "best", "certify",
-           "resume_iterations", "resume_radius", "resume_above", "cap"}  # or one value per node, or empty
+           "resume_iterations", "resume_radius", "resume_above", "cap", "s_min"}  # or one value per node, or empty
 
 _ENV = "ANGLESMOOTH_KERNEL"
 _kernels = None  # the compiled module, imported on first use
