@@ -37,6 +37,12 @@ from ._rows import INVALID, INVERTED_WEIGHT, _gather_xy, _quad_vals, _row_area, 
 
 
 
+_NO_ROWS = np.zeros(0, np.intp)
+_NO_VALUES, _NO_BOOLS = np.zeros(0), np.zeros(0, bool)  # the columns of no rows (never written: empty)
+_EMPTY_ROWS = object.__new__(_Rows)  # the row layout of no rows (what _Rows gives for none: no chunk)
+_EMPTY_ROWS.perm, _EMPTY_ROWS.chunks = _NO_ROWS, []
+
+
 class BlockGeometry:
     """The fixed part of a block's incident cells, gathered once per block update.
 
@@ -68,26 +74,47 @@ class BlockGeometry:
             self.t_fa, self.t_f1, self.t_f2, self.q_fa, self.q_f1, self.q_f3 = _row_floors(
                 topo, floors, None if subset is not None else key[1:], t_ids, q_ids)
         with np.errstate(divide="ignore", invalid="ignore"):
-            # triangles (p0 moving, p1, p2 fixed)
-            # (contiguous x / y columns: see _gather_xy)
-            self.t_x1, self.t_y1 = _gather_xy(points, t_v[0])
-            self.t_x2, self.t_y2 = _gather_xy(points, t_v[1])
-            self.t_ux = self.t_x2 - self.t_x1  # e12 = p2 - p1
-            self.t_uy = self.t_y2 - self.t_y1
-            self.t_l12 = np.sqrt(self.t_ux * self.t_ux + self.t_uy * self.t_uy)
+            if t_v[0].shape[0]:
+                self._tri_columns(points, t_v)
+            else:  # no triangle rows (a mesh of quads): empty columns, nothing to gather
+                for name in self._TRI:
+                    setattr(self, name, _NO_VALUES)
+            if not q_v[0].shape[0]:  # no quad rows
+                for name in self._QUAD:
+                    setattr(self, name, _NO_VALUES)
+                self.q_ok2 = _NO_BOOLS
+                return
             # quads (p0 moving; p1, p2, p3 fixed); corner 2 does not depend on p0
             self.q_x1, self.q_y1 = _gather_xy(points, q_v[0])
             x2, y2 = _gather_xy(points, q_v[1])
             self.q_x3, self.q_y3 = _gather_xy(points, q_v[2])
             self.q_ux, self.q_uy = x2 - self.q_x1, y2 - self.q_y1  # e12
-            self.q_vx, self.q_vy = self.q_x3 - x2, self.q_y3 - y2  # e23
-            self.q_l12 = np.sqrt(self.q_ux * self.q_ux + self.q_uy * self.q_uy)
-            self.q_l23 = np.sqrt(self.q_vx * self.q_vx + self.q_vy * self.q_vy)
-            # corner 2: angle between e23 and -e12
-            c2 = self.q_vx * -self.q_uy - self.q_vy * -self.q_ux
-            cos2 = (self.q_vx * -self.q_ux + self.q_vy * -self.q_uy) / (self.q_l23 * self.q_l12)
-        self.q_ok2 = (c2 > 0) & np.isfinite(cos2)
-        self.q_cos2 = np.where(self.q_ok2, np.abs(cos2), 1.0)
+            ux, uy = self.q_ux, self.q_uy
+            # e23, into p2's columns (not needed again)
+            self.q_vx, self.q_vy = vx, vy = np.subtract(self.q_x3, x2, out=x2), np.subtract(self.q_y3, y2, out=y2)
+            self.q_l12 = _norm(ux, uy)
+            self.q_l23 = _norm(vx, vy)
+            # corner 2: the angle between e23 and -e12.  Its cross product e23 x -e12 = vx (-uy) - vy (-ux) is
+            # -(vx uy) + vy ux exactly (negation is exact), positive exactly where vy ux > vx uy; its cosine
+            # (vx (-ux) + vy (-uy)) / (l23 l12) is exactly -((vx ux + vy uy) / (l23 l12)), the same |cos| and
+            # finiteness: the former numbers with two negations and three temporaries fewer
+            cos2 = vx * ux
+            cos2 += vy * uy
+            np.divide(cos2, self.q_l23 * self.q_l12, out=cos2)
+            ok2 = np.greater(vy * ux, vx * uy)
+        ok2 &= np.isfinite(cos2)
+        self.q_ok2 = ok2
+        self.q_cos2 = np.absolute(cos2, out=cos2)
+        if np.count_nonzero(ok2) != ok2.size:  # (np.where(ok2, |cos2|, 1.0)'s numbers)
+            cos2[~ok2] = 1.0
+
+    def _tri_columns(self, points: np.ndarray, t_v: tuple) -> None:
+        """The triangle rows' columns (p0 moving, p1, p2 fixed), contiguous x / y (see _gather_xy)."""
+        self.t_x1, self.t_y1 = _gather_xy(points, t_v[0])
+        self.t_x2, self.t_y2 = _gather_xy(points, t_v[1])
+        self.t_ux = self.t_x2 - self.t_x1  # e12 = p2 - p1
+        self.t_uy = self.t_y2 - self.t_y1
+        self.t_l12 = _norm(self.t_ux, self.t_uy)
 
     _TRI = ("t_x1", "t_y1", "t_x2", "t_y2", "t_ux", "t_uy", "t_l12")
     _QUAD = ("q_x1", "q_y1", "q_x3", "q_y3", "q_ux", "q_uy", "q_vx", "q_vy", "q_l12", "q_l23", "q_ok2", "q_cos2")
@@ -103,6 +130,9 @@ class BlockGeometry:
         """
         picks = []
         for rel_name in ("t_rel", "q_rel"):
+            if not getattr(self, rel_name).shape[0]:  # no rows of this kind (a mesh of one kind): none to pick
+                picks += [_NO_ROWS, _NO_ROWS]
+                continue
             first, counts = self._starts(rel_name)
             c = counts[subset]
             ends = np.cumsum(c)
@@ -121,6 +151,12 @@ class BlockGeometry:
             (t_keep, t_rel, "t_rel", "_t", self._TRI + (self._TRI_FLOORS if fl else ())),
             (q_keep, q_rel, "q_rel", "_q", self._QUAD + (self._QUAD_FLOORS if fl else ())),
         ):
+            if not keep.shape[0]:  # no row of this kind: empty columns (views), no layout to build
+                setattr(g, rows_name, _EMPTY_ROWS)
+                setattr(g, rel_name, rel)
+                for name in names:
+                    setattr(g, name, getattr(self, name)[:0])
+                continue
             rows = _Rows(rel, n, _SMALL_SUBSET)
             setattr(g, rows_name, rows)
             setattr(g, rel_name, rel[rows.perm])
@@ -174,11 +210,14 @@ class BlockGeometry:
         fresh = True  # no row reduced into ``best`` yet (min(inf, v) is v: the first chunk of all nodes assigns)
         with np.errstate(divide="ignore", invalid="ignore"):
             for quads, rows in ((False, self._t), (True, self._q)):
-                for r0, r1, nodes, d in rows.chunks:
+                firsts = self._first_chunks() if quads else None
+                for ci, (r0, r1, nodes, d) in enumerate(rows.chunks):
                     # small chunks take several candidates at once (fewer, larger numpy calls)
                     kb = max(1, _CHUNK // (r1 - r0))
                     whole = fresh and kb >= K and nodes.shape[0] == self.n  # nodes: sorted, distinct
                     fresh = False
+                    # no earlier chunk reduced into these nodes' ``best`` (still inf): assigned, not min-ed
+                    first = True if firsts is None else firsts[ci]
                     starts = None if isinstance(d, int) else np.cumsum(d) - d
                     sr = q_strict[r0:r1] if quads and q_strict is not None else None
                     bnd = None if band is None else (b_lo[nodes], b_hi[nodes])
@@ -192,6 +231,8 @@ class BlockGeometry:
                         low, w, out = score_rows(quads, px, py, cols, fl, d, starts, sr, bnd)
                         if whole:  # (nodes: sorted, the ragged chunk's too)
                             best[:] = low
+                        elif first:
+                            best[at] = low
                         else:
                             best[at] = np.minimum(best[at], low)
                         if w is not None:
@@ -203,6 +244,25 @@ class BlockGeometry:
                                 out_band = np.zeros((K, self.n), bool)
                             out_band[at] |= out
         return finish_scores(best, bad, out_band).reshape(lead + (self.n,))
+
+    def _first_chunks(self) -> list:
+        """Per chunk of quad rows: none of its nodes has a triangle row (the triangle rows' chunks come first
+        in :meth:`score`; each node's rows of one kind are in one chunk), so that its minimum is the nodes'
+        first.  Topology only: cached with the layout of a whole block, computed once per geometry otherwise."""
+        hit = self.__dict__.get("_firsts")
+        if hit is None:
+            key = None if self._key is None else ("geometry-first-chunks",) + self._key
+            hit = None if key is None else self._cache.get(key)
+            if hit is None:
+                if not self.t_rel.shape[0]:
+                    hit = [True] * len(self._q.chunks)
+                else:
+                    has = self._has_tris()
+                    hit = [not has[nodes].any() for _, _, nodes, _ in self._q.chunks]
+                if key is not None:
+                    self._cache[key] = hit
+            self._firsts = hit
+        return hit
 
     def _has_tris(self) -> np.ndarray:
         """Per node: it has a triangle row (topology only: computed once per geometry)."""
@@ -307,6 +367,13 @@ class BlockGeometry:
                     lo[at] = np.minimum(lo[at], _rowreduce(ar, d))
                     hi[at] = np.maximum(hi[at], _rowreduce(ar, d, np.maximum))
         return lo.reshape(lead + (self.n,)), hi.reshape(lead + (self.n,))
+
+
+def _norm(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``np.sqrt(x * x + y * y)`` with one temporary (the same numbers)."""
+    t = x * x
+    t += y * y
+    return np.sqrt(t, out=t)
 
 
 def _chunk_xy(x0: np.ndarray, y0: np.ndarray, at: tuple, d) -> tuple[np.ndarray, np.ndarray]:

@@ -238,9 +238,11 @@ def _quad_vals(px, py, cols, fl, want_area=False):
     ``BlockGeometry._QUAD_FLOORS`` or None); +inf where invalid."""
     x1, y1, x3, y3, ux, uy, vx, vy = cols[:8]
     cm, ex1, ey1, ex3, ey3, l1, l3 = _quad_core(px, py, cols)
-    ok = ex1 * ey3 - ey1 * ex3 > 0
-    ok &= uy * ex1 - ux * ey1 > 0  # corner 1: e12 x (-e1)
-    ok &= ex3 * vy - ey3 * vx > 0  # corner 3: e3 x e23
+    # a corner's cross product a - b is > 0 exactly where a > b (a difference of two doubles is zero only
+    # where they are equal, NaN where both are the same infinity): one subtraction fewer a corner
+    ok = np.greater(ex1 * ey3, ey1 * ex3)  # corner 0: e1 x e3
+    ok &= np.greater(uy * ex1, ux * ey1)  # corner 1: e12 x (-e1)
+    ok &= np.greater(ex3 * vy, ey3 * vx)  # corner 3: e3 x e23
     ok &= cols[10] if cols[10].dtype == bool else cols[10] > 0  # q_ok2 (a float 0 / 1 in a packed copy)
     ar = None
     if fl is not None or want_area:
