@@ -128,34 +128,49 @@ class BlockGeometry:
         are contiguous in the layout), in O(subset) instead of a remap over all the block's rows, in
         the order a remap, ``flatnonzero`` and :class:`_Rows` give for sorted ``subset``.
         """
-        picks = []
+        picks, counts = [], []
         for rel_name in ("t_rel", "q_rel"):
             if not getattr(self, rel_name).shape[0]:  # no rows of this kind (a mesh of one kind): none to pick
                 picks += [_NO_ROWS, _NO_ROWS]
+                counts.append(None)
                 continue
-            first, counts = self._starts(rel_name)
-            c = counts[subset]
+            first, cnt = self._starts(rel_name)
+            c = cnt[subset]
             ends = np.cumsum(c)
             m = int(ends[-1]) if ends.size else 0
             picks.append(np.repeat(first[subset] - (ends - c), c) + np.arange(m))
             picks.append(np.repeat(np.arange(subset.shape[0]), c))
-        return self.pick(subset.shape[0], *picks)
+            counts.append(c)
+        return self.pick(subset.shape[0], *picks, counts=counts)
 
-    def pick(self, n: int, t_keep: np.ndarray, t_rel: np.ndarray, q_keep: np.ndarray, q_rel: np.ndarray) -> BlockGeometry:
+    def pick(self, n: int, t_keep: np.ndarray, t_rel: np.ndarray, q_keep: np.ndarray, q_rel: np.ndarray,
+             counts=None) -> BlockGeometry:
         """A geometry of ``n`` nodes made of the rows ``t_keep`` / ``q_keep`` of this one, the row ``t_keep[j]``
-        belonging to node ``t_rel[j]`` (``t_rel`` sorted, each node's rows in the order given)."""
+        belonging to node ``t_rel[j]`` (``t_rel`` sorted, each node's rows in the order given; ``counts``: the
+        rows per node of each kind, or None, if the caller has them)."""
         g = object.__new__(BlockGeometry)
         g.n = n
         g.floors = fl = self.floors
-        for keep, rel, rel_name, rows_name, names in (
-            (t_keep, t_rel, "t_rel", "_t", self._TRI + (self._TRI_FLOORS if fl else ())),
-            (q_keep, q_rel, "q_rel", "_q", self._QUAD + (self._QUAD_FLOORS if fl else ())),
+        for keep, rel, rel_name, rows_name, names, cnt in (
+            (t_keep, t_rel, "t_rel", "_t", self._TRI + (self._TRI_FLOORS if fl else ()), None if counts is None else counts[0]),
+            (q_keep, q_rel, "q_rel", "_q", self._QUAD + (self._QUAD_FLOORS if fl else ()), None if counts is None else counts[1]),
         ):
             if not keep.shape[0]:  # no row of this kind: empty columns (views), no layout to build
                 setattr(g, rows_name, _EMPTY_ROWS)
                 setattr(g, rel_name, rel)
                 for name in names:
                     setattr(g, name, getattr(self, name)[:0])
+                continue
+            if keep.shape[0] <= _SMALL_SUBSET:  # one ragged chunk, the rows in their order (rel is sorted):
+                # what _Rows gives (its stable argsort of a sorted rel is the identity), without sorting
+                cnt = np.bincount(rel, minlength=n) if cnt is None else cnt
+                nodes = np.flatnonzero(cnt)
+                rows = object.__new__(_Rows)
+                rows.perm, rows.chunks = None, [(0, keep.shape[0], nodes, cnt[nodes])]
+                setattr(g, rows_name, rows)
+                setattr(g, rel_name, rel)
+                for name in names:
+                    setattr(g, name, getattr(self, name).take(keep))
                 continue
             rows = _Rows(rel, n, _SMALL_SUBSET)
             setattr(g, rows_name, rows)
@@ -203,7 +218,7 @@ class BlockGeometry:
         Xf = X.reshape((-1, self.n, 2))
         K = Xf.shape[0]
         x0, y0 = np.ascontiguousarray(Xf[..., 0]), np.ascontiguousarray(Xf[..., 1])
-        best = np.full((K, self.n), np.inf)
+        best = None  # (K, n): the first chunk's minimum itself where it covers every node, else inf-filled
         bad = out_band = None
         if band is not None:
             b_lo, b_hi = (np.broadcast_to(np.asarray(b, dtype=np.float64), (self.n,)) for b in band)
@@ -226,15 +241,18 @@ class BlockGeometry:
                         # one candidate: 1-d rows (a (1, rows) operand against the (rows,) columns costs every
                         # ufunc numpy's general iterator instead of its plain loop)
                         at = (k0, nodes) if K == 1 else (slice(k0, k1), nodes)
-                        px, py = _chunk_xy(x0, y0, at, d)
+                        px, py = _chunk_xy(x0, y0, at, d, nodes.shape[0] == self.n)
                         cols, fl = self._chunk_cols(quads, px, r0, r1)
                         low, w, out = score_rows(quads, px, py, cols, fl, d, starts, sr, bnd)
-                        if whole:  # (nodes: sorted, the ragged chunk's too)
-                            best[:] = low
-                        elif first:
-                            best[at] = low
+                        if whole:  # (nodes: sorted, the ragged chunk's too; low: a fresh array)
+                            best = low.reshape(K, self.n)
                         else:
-                            best[at] = np.minimum(best[at], low)
+                            if best is None:
+                                best = np.full((K, self.n), np.inf)
+                            if first:
+                                best[at] = low
+                            else:
+                                best[at] = np.minimum(best[at], low)
                         if w is not None:
                             if bad is None:
                                 bad = np.zeros((K, self.n))
@@ -243,6 +261,8 @@ class BlockGeometry:
                             if out_band is None:
                                 out_band = np.zeros((K, self.n), bool)
                             out_band[at] |= out
+        if best is None:  # (no rows)
+            best = np.full((K, self.n), np.inf)
         return finish_scores(best, bad, out_band).reshape(lead + (self.n,))
 
     def _first_chunks(self) -> list:
@@ -288,6 +308,8 @@ class BlockGeometry:
         instructions per pass without stage 5 395.3 M untiled, 400.5 M tiled)."""
         k = px.shape[0] if px.ndim == 2 else 1
         if k == 1:
+            if r0 == 0 and r1 == self.t_x1.shape[0]:  # every row: the columns themselves
+                return tuple(getattr(self, name) for name in names)
             return tuple(getattr(self, name)[r0:r1] for name in names)
         tiles = self.__dict__.setdefault("_tiles", {})
         out = []
@@ -305,6 +327,9 @@ class BlockGeometry:
         triangle rows tiled like ``px`` (:meth:`_cols`), quad rows as slices."""
         if not quads:
             return self._cols(px, r0, r1, *self._TRI), self._cols(px, r0, r1, *self._TRI_FLOORS) if self.floors else None
+        if r0 == 0 and r1 == self.q_x1.shape[0]:  # every row (a small geometry's one chunk): the columns themselves
+            return (tuple(getattr(self, name) for name in self._QUAD),
+                    tuple(getattr(self, name) for name in self._QUAD_FLOORS) if self.floors else None)
         cols = (self.q_x1[r0:r1], self.q_y1[r0:r1], self.q_x3[r0:r1], self.q_y3[r0:r1], self.q_ux[r0:r1],
                 self.q_uy[r0:r1], self.q_vx[r0:r1], self.q_vy[r0:r1], self.q_l12[r0:r1], self.q_l23[r0:r1],
                 self.q_ok2[r0:r1], self.q_cos2[r0:r1])  # _QUAD
@@ -376,13 +401,17 @@ def _norm(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.sqrt(t, out=t)
 
 
-def _chunk_xy(x0: np.ndarray, y0: np.ndarray, at: tuple, d) -> tuple[np.ndarray, np.ndarray]:
+def _chunk_xy(x0: np.ndarray, y0: np.ndarray, at: tuple, d, every: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The moving corner of a chunk's rows: the candidates ``at`` (``(k, nodes)``: one candidate, 1-d rows;
     ``(slice, nodes)``: (candidates, rows)) of ``x0``, ``y0`` (candidates, nodes), each node's repeated for
-    its ``d`` rows."""
+    its ``d`` rows.  ``every``: ``nodes`` is every node (``arange``), nothing to gather."""
     if isinstance(at[0], slice):
+        if every:
+            return np.repeat(x0[at[0]], d, axis=1), np.repeat(y0[at[0]], d, axis=1)
         return np.repeat(x0[at], d, axis=1), np.repeat(y0[at], d, axis=1)
     k, nodes = at
+    if every:
+        return x0[k].repeat(d), y0[k].repeat(d)
     return x0[k].take(nodes).repeat(d), y0[k].take(nodes).repeat(d)
 
 
