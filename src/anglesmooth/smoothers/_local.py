@@ -350,28 +350,28 @@ class BlockGeometry:
         triangles, corners 0, 1 and 3 of its quads (corner 2 does not depend on it); the score's
         operations, NaN where one is NaN.  Stage 1's test at nodes of well-shaped input cells."""
         x0, y0 = np.asarray(X[:, 0], dtype=np.float64), np.asarray(X[:, 1], dtype=np.float64)
-        out = np.full(self.n, -np.inf)
+        out = None  # (n,): the first chunk's maximum itself where it covers every node, else -inf-filled
+        fresh = True
         with np.errstate(divide="ignore", invalid="ignore"):
-            for r0, r1, nodes, d in self._t.chunks:
-                px, py = np.repeat(x0[nodes], d), np.repeat(y0[nodes], d)
-                ux, uy, l12 = self.t_ux[r0:r1], self.t_uy[r0:r1], self.t_l12[r0:r1]
-                ex1, ey1 = self.t_x1[r0:r1] - px, self.t_y1[r0:r1] - py
-                fx2, fy2 = px - self.t_x2[r0:r1], py - self.t_y2[r0:r1]
-                l1, l2 = np.sqrt(ex1 * ex1 + ey1 * ey1), np.sqrt(fx2 * fx2 + fy2 * fy2)
-                v = np.maximum(np.maximum((ex1 * fx2 + ey1 * fy2) / (l1 * l2), (ux * ex1 + uy * ey1) / (l12 * l1)),
-                               (fx2 * ux + fy2 * uy) / (l2 * l12))
-                out[nodes] = np.maximum(out[nodes], _rowreduce(v, d, np.maximum))
-            for r0, r1, nodes, d in self._q.chunks:
-                px, py = np.repeat(x0[nodes], d), np.repeat(y0[nodes], d)
-                ux, uy, l12 = self.q_ux[r0:r1], self.q_uy[r0:r1], self.q_l12[r0:r1]
-                vx, vy, l23 = self.q_vx[r0:r1], self.q_vy[r0:r1], self.q_l23[r0:r1]
-                ex1, ey1 = self.q_x1[r0:r1] - px, self.q_y1[r0:r1] - py
-                ex3, ey3 = self.q_x3[r0:r1] - px, self.q_y3[r0:r1] - py
-                l1, l3 = np.sqrt(ex1 * ex1 + ey1 * ey1), np.sqrt(ex3 * ex3 + ey3 * ey3)
-                v = np.maximum(np.maximum(-((ex1 * ex3 + ey1 * ey3) / (l1 * l3)), (ux * ex1 + uy * ey1) / (l12 * l1)),
-                               -((ex3 * vx + ey3 * vy) / (l3 * l23)))
-                out[nodes] = np.maximum(out[nodes], _rowreduce(v, d, np.maximum))
-        return out
+            for quads, rows in ((False, self._t), (True, self._q)):
+                firsts = self._first_chunks() if quads else None
+                for ci, (r0, r1, nodes, d) in enumerate(rows.chunks):
+                    every = nodes.shape[0] == self.n  # (nodes: sorted, distinct)
+                    if every:
+                        px, py = np.repeat(x0, d), np.repeat(y0, d)
+                    else:
+                        px, py = np.repeat(x0[nodes], d), np.repeat(y0[nodes], d)
+                    v = _largest_rows(quads, px, py, self._chunk_cols(quads, px, r0, r1)[0])
+                    v = _rowreduce(v, d, np.maximum)
+                    if fresh and every:
+                        out = v
+                    else:
+                        if out is None:
+                            out = np.full(self.n, -np.inf)
+                        # max(-inf, v) is v: a chunk whose nodes no earlier chunk had assigns
+                        out[nodes] = v if firsts is None or firsts[ci] else np.maximum(out[nodes], v)
+                    fresh = False
+        return np.full(self.n, -np.inf) if out is None else out
 
     def area_range(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Smallest and largest signed area of each node's incident cells at positions ``X`` (..., n, 2)."""
@@ -392,6 +392,42 @@ class BlockGeometry:
                     lo[at] = np.minimum(lo[at], _rowreduce(ar, d))
                     hi[at] = np.maximum(hi[at], _rowreduce(ar, d, np.maximum))
         return lo.reshape(lead + (self.n,)), hi.reshape(lead + (self.n,))
+
+
+def _largest_rows(quads: bool, px, py, cols) -> np.ndarray:
+    """Per row, ``-cos`` of the largest corner that moves with p0 at (px, py) (:meth:`BlockGeometry.largest`):
+    the score kernels' operations (``cols``: ``BlockGeometry._TRI`` / ``_QUAD``), written in place."""
+    if quads:
+        x1, y1, x3, y3, ux, uy, vx, vy, l12, l23 = cols[:10]
+        ex1, ey1, ex3, ey3 = x1 - px, y1 - py, x3 - px, y3 - py
+        l1, l3 = _norm(ex1, ey1), _norm(ex3, ey3)
+        v = ex1 * ex3  # corner 0: -((e1.e3) / (l1 l3))
+        v += ey1 * ey3
+        v /= l1 * l3
+        np.negative(v, out=v)
+        c1 = ux * ex1  # corner 1: (e12.e1) / (l12 l1)
+        c1 += uy * ey1
+        c1 /= l12 * l1
+        np.maximum(v, c1, out=v)
+        c3 = ex3 * vx  # corner 3: -((e3.e23) / (l3 l23))
+        c3 += ey3 * vy
+        c3 /= l3 * l23
+        np.negative(c3, out=c3)
+        return np.maximum(v, c3, out=v)
+    x1, y1, x2, y2, ux, uy, l12 = cols[:7]
+    ex1, ey1, fx2, fy2 = x1 - px, y1 - py, px - x2, py - y2
+    l1, l2 = _norm(ex1, ey1), _norm(fx2, fy2)
+    v = ex1 * fx2  # corner 0
+    v += ey1 * fy2
+    v /= l1 * l2
+    c1 = ux * ex1  # corner 1
+    c1 += uy * ey1
+    c1 /= l12 * l1
+    np.maximum(v, c1, out=v)
+    c2 = fx2 * ux  # corner 2
+    c2 += fy2 * uy
+    c2 /= l2 * l12
+    return np.maximum(v, c2, out=v)
 
 
 def _norm(x: np.ndarray, y: np.ndarray) -> np.ndarray:
