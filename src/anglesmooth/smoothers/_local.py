@@ -33,7 +33,7 @@ from ._floors import Floors
 from ._compass import _COMPASS, optimize  # noqa: F401 (re-exported: moved to _compass)
 from ._targets import angle_target, laplacian_target, local_scale  # noqa: F401 (re-exported: moved to _targets)
 from ._rows import _C30, _CHUNK, _SMALL, _SMALL_SUBSET, _layout, _rowreduce, _Rows, strict_quad  # noqa: F401
-from ._rows import INVALID, INVERTED_WEIGHT, _gather_xy, _quad_vals, _row_area, _tri_vals, finish_scores, score_rows  # noqa: F401
+from ._rows import INVALID, INVERTED_WEIGHT, _gather_xy, _largest_rows, _norm, _quad_vals, _row_area, _tri_vals, finish_scores, score_rows  # noqa: F401
 
 
 
@@ -392,49 +392,6 @@ class BlockGeometry:
                     lo[at] = np.minimum(lo[at], _rowreduce(ar, d))
                     hi[at] = np.maximum(hi[at], _rowreduce(ar, d, np.maximum))
         return lo.reshape(lead + (self.n,)), hi.reshape(lead + (self.n,))
-
-
-def _largest_rows(quads: bool, px, py, cols) -> np.ndarray:
-    """Per row, ``-cos`` of the largest corner that moves with p0 at (px, py) (:meth:`BlockGeometry.largest`):
-    the score kernels' operations (``cols``: ``BlockGeometry._TRI`` / ``_QUAD``), written in place."""
-    if quads:
-        x1, y1, x3, y3, ux, uy, vx, vy, l12, l23 = cols[:10]
-        ex1, ey1, ex3, ey3 = x1 - px, y1 - py, x3 - px, y3 - py
-        l1, l3 = _norm(ex1, ey1), _norm(ex3, ey3)
-        v = ex1 * ex3  # corner 0: -((e1.e3) / (l1 l3))
-        v += ey1 * ey3
-        v /= l1 * l3
-        np.negative(v, out=v)
-        c1 = ux * ex1  # corner 1: (e12.e1) / (l12 l1)
-        c1 += uy * ey1
-        c1 /= l12 * l1
-        np.maximum(v, c1, out=v)
-        c3 = ex3 * vx  # corner 3: -((e3.e23) / (l3 l23))
-        c3 += ey3 * vy
-        c3 /= l3 * l23
-        np.negative(c3, out=c3)
-        return np.maximum(v, c3, out=v)
-    x1, y1, x2, y2, ux, uy, l12 = cols[:7]
-    ex1, ey1, fx2, fy2 = x1 - px, y1 - py, px - x2, py - y2
-    l1, l2 = _norm(ex1, ey1), _norm(fx2, fy2)
-    v = ex1 * fx2  # corner 0
-    v += ey1 * fy2
-    v /= l1 * l2
-    c1 = ux * ex1  # corner 1
-    c1 += uy * ey1
-    c1 /= l12 * l1
-    np.maximum(v, c1, out=v)
-    c2 = fx2 * ux  # corner 2
-    c2 += fy2 * uy
-    c2 /= l2 * l12
-    return np.maximum(v, c2, out=v)
-
-
-def _norm(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """``np.sqrt(x * x + y * y)`` with one temporary (the same numbers)."""
-    t = x * x
-    t += y * y
-    return np.sqrt(t, out=t)
 
 
 def _chunk_xy(x0: np.ndarray, y0: np.ndarray, at: tuple, d, every: bool = False) -> tuple[np.ndarray, np.ndarray]:
