@@ -23,10 +23,11 @@ _SMALL = 4096  # up to this many rows, one ragged chunk (see _Rows)
 #: 100k quads 77 -> 68 ms; 100k and 1M triangles, 1M quads within 2 %; 16x this is 5-13 % slower at 1M)
 _SMALL_SUBSET = _CHUNK
 #: rows of a regular chunk of a layout (:class:`_Rows`: nodes with the same number of rows), which every score
-#: of the block's nodes reads in one go: fewer, larger numpy calls (100k random quads, numpy: a default pass
-#: 331.0 M instructions with _CHUNK, 327.7 with this, 321.8 with 4 x _CHUNK, whose temporaries leave the L2
-#: cache: CPU per default over literal pass 2.48 / 2.46 / 2.62, medians of 6 interleaved runs)
-_LAYOUT_CHUNK = 2 * _CHUNK
+#: of the block's nodes reads in one go: fewer, larger numpy calls.  100k random quads, numpy, a default pass:
+#: 331.0 M instructions with _CHUNK, 327.7 with 2 x, 321.8 with this; CPU of a default over a literal pass
+#: (medians of interleaved runs, NUMBA_NUM_THREADS=1, a loaded machine) 100k quads 2.59 / 2.58 / 2.51 and
+#: 2.47 (2 x) / 2.43, 1M quads 2.19 / 2.08 / 2.04 (one earlier run of 6 had this one at 2.62 against 2.48)
+_LAYOUT_CHUNK = 4 * _CHUNK
 #: a group of nodes with the same number of rows that has fewer rows than this joins the ragged chunks (see
 #: _Rows; 100k random triangles, numpy: the score at every node's angle position 60.1 M instructions a pass with
 #: none, 45.9 with 2048, 40.2 with 8192, 39.8 with this)
