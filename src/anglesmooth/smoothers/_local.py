@@ -33,8 +33,14 @@ from ._floors import Floors
 from ._compass import _COMPASS, optimize  # noqa: F401 (re-exported: moved to _compass)
 from ._targets import angle_target, laplacian_target, local_scale  # noqa: F401 (re-exported: moved to _targets)
 from ._rows import _C30, _CHUNK, _SMALL, _SMALL_SUBSET, _layout, _rowreduce, _Rows, strict_quad  # noqa: F401
-from ._rows import INVALID, INVERTED_WEIGHT, _gather_xy, _quad_vals, _row_area, _tri_vals, finish_scores, score_rows  # noqa: F401
+from ._rows import INVALID, INVERTED_WEIGHT, _gather_xy, _largest_rows, _norm, _quad_vals, _row_area, _tri_vals, finish_scores, score_rows  # noqa: F401
 
+
+
+_NO_ROWS = np.zeros(0, np.intp)
+_NO_VALUES, _NO_BOOLS = np.zeros(0), np.zeros(0, bool)  # the columns of no rows (never written: empty)
+_EMPTY_ROWS = object.__new__(_Rows)  # the row layout of no rows (what _Rows gives for none: no chunk)
+_EMPTY_ROWS.perm, _EMPTY_ROWS.chunks = _NO_ROWS, []
 
 
 class BlockGeometry:
@@ -68,26 +74,47 @@ class BlockGeometry:
             self.t_fa, self.t_f1, self.t_f2, self.q_fa, self.q_f1, self.q_f3 = _row_floors(
                 topo, floors, None if subset is not None else key[1:], t_ids, q_ids)
         with np.errstate(divide="ignore", invalid="ignore"):
-            # triangles (p0 moving, p1, p2 fixed)
-            # (contiguous x / y columns: see _gather_xy)
-            self.t_x1, self.t_y1 = _gather_xy(points, t_v[0])
-            self.t_x2, self.t_y2 = _gather_xy(points, t_v[1])
-            self.t_ux = self.t_x2 - self.t_x1  # e12 = p2 - p1
-            self.t_uy = self.t_y2 - self.t_y1
-            self.t_l12 = np.sqrt(self.t_ux * self.t_ux + self.t_uy * self.t_uy)
+            if t_v[0].shape[0]:
+                self._tri_columns(points, t_v)
+            else:  # no triangle rows (a mesh of quads): empty columns, nothing to gather
+                for name in self._TRI:
+                    setattr(self, name, _NO_VALUES)
+            if not q_v[0].shape[0]:  # no quad rows
+                for name in self._QUAD:
+                    setattr(self, name, _NO_VALUES)
+                self.q_ok2 = _NO_BOOLS
+                return
             # quads (p0 moving; p1, p2, p3 fixed); corner 2 does not depend on p0
             self.q_x1, self.q_y1 = _gather_xy(points, q_v[0])
             x2, y2 = _gather_xy(points, q_v[1])
             self.q_x3, self.q_y3 = _gather_xy(points, q_v[2])
             self.q_ux, self.q_uy = x2 - self.q_x1, y2 - self.q_y1  # e12
-            self.q_vx, self.q_vy = self.q_x3 - x2, self.q_y3 - y2  # e23
-            self.q_l12 = np.sqrt(self.q_ux * self.q_ux + self.q_uy * self.q_uy)
-            self.q_l23 = np.sqrt(self.q_vx * self.q_vx + self.q_vy * self.q_vy)
-            # corner 2: angle between e23 and -e12
-            c2 = self.q_vx * -self.q_uy - self.q_vy * -self.q_ux
-            cos2 = (self.q_vx * -self.q_ux + self.q_vy * -self.q_uy) / (self.q_l23 * self.q_l12)
-        self.q_ok2 = (c2 > 0) & np.isfinite(cos2)
-        self.q_cos2 = np.where(self.q_ok2, np.abs(cos2), 1.0)
+            ux, uy = self.q_ux, self.q_uy
+            # e23, into p2's columns (not needed again)
+            self.q_vx, self.q_vy = vx, vy = np.subtract(self.q_x3, x2, out=x2), np.subtract(self.q_y3, y2, out=y2)
+            self.q_l12 = _norm(ux, uy)
+            self.q_l23 = _norm(vx, vy)
+            # corner 2: the angle between e23 and -e12.  Its cross product e23 x -e12 = vx (-uy) - vy (-ux) is
+            # -(vx uy) + vy ux exactly (negation is exact), positive exactly where vy ux > vx uy; its cosine
+            # (vx (-ux) + vy (-uy)) / (l23 l12) is exactly -((vx ux + vy uy) / (l23 l12)), the same |cos| and
+            # finiteness: the former numbers with two negations and three temporaries fewer
+            cos2 = vx * ux
+            cos2 += vy * uy
+            np.divide(cos2, self.q_l23 * self.q_l12, out=cos2)
+            ok2 = np.greater(vy * ux, vx * uy)
+        ok2 &= np.isfinite(cos2)
+        self.q_ok2 = ok2
+        self.q_cos2 = np.absolute(cos2, out=cos2)
+        if np.count_nonzero(ok2) != ok2.size:  # (np.where(ok2, |cos2|, 1.0)'s numbers)
+            cos2[~ok2] = 1.0
+
+    def _tri_columns(self, points: np.ndarray, t_v: tuple) -> None:
+        """The triangle rows' columns (p0 moving, p1, p2 fixed), contiguous x / y (see _gather_xy)."""
+        self.t_x1, self.t_y1 = _gather_xy(points, t_v[0])
+        self.t_x2, self.t_y2 = _gather_xy(points, t_v[1])
+        self.t_ux = self.t_x2 - self.t_x1  # e12 = p2 - p1
+        self.t_uy = self.t_y2 - self.t_y1
+        self.t_l12 = _norm(self.t_ux, self.t_uy)
 
     _TRI = ("t_x1", "t_y1", "t_x2", "t_y2", "t_ux", "t_uy", "t_l12")
     _QUAD = ("q_x1", "q_y1", "q_x3", "q_y3", "q_ux", "q_uy", "q_vx", "q_vy", "q_l12", "q_l23", "q_ok2", "q_cos2")
@@ -101,26 +128,50 @@ class BlockGeometry:
         are contiguous in the layout), in O(subset) instead of a remap over all the block's rows, in
         the order a remap, ``flatnonzero`` and :class:`_Rows` give for sorted ``subset``.
         """
-        picks = []
+        picks, counts = [], []
         for rel_name in ("t_rel", "q_rel"):
-            first, counts = self._starts(rel_name)
-            c = counts[subset]
+            if not getattr(self, rel_name).shape[0]:  # no rows of this kind (a mesh of one kind): none to pick
+                picks += [_NO_ROWS, _NO_ROWS]
+                counts.append(None)
+                continue
+            first, cnt = self._starts(rel_name)
+            c = cnt[subset]
             ends = np.cumsum(c)
             m = int(ends[-1]) if ends.size else 0
             picks.append(np.repeat(first[subset] - (ends - c), c) + np.arange(m))
             picks.append(np.repeat(np.arange(subset.shape[0]), c))
-        return self.pick(subset.shape[0], *picks)
+            counts.append(c)
+        return self.pick(subset.shape[0], *picks, counts=counts)
 
-    def pick(self, n: int, t_keep: np.ndarray, t_rel: np.ndarray, q_keep: np.ndarray, q_rel: np.ndarray) -> BlockGeometry:
+    def pick(self, n: int, t_keep: np.ndarray, t_rel: np.ndarray, q_keep: np.ndarray, q_rel: np.ndarray,
+             counts=None) -> BlockGeometry:
         """A geometry of ``n`` nodes made of the rows ``t_keep`` / ``q_keep`` of this one, the row ``t_keep[j]``
-        belonging to node ``t_rel[j]`` (``t_rel`` sorted, each node's rows in the order given)."""
+        belonging to node ``t_rel[j]`` (``t_rel`` sorted, each node's rows in the order given; ``counts``: the
+        rows per node of each kind, or None, if the caller has them)."""
         g = object.__new__(BlockGeometry)
         g.n = n
         g.floors = fl = self.floors
-        for keep, rel, rel_name, rows_name, names in (
-            (t_keep, t_rel, "t_rel", "_t", self._TRI + (self._TRI_FLOORS if fl else ())),
-            (q_keep, q_rel, "q_rel", "_q", self._QUAD + (self._QUAD_FLOORS if fl else ())),
+        for keep, rel, rel_name, rows_name, names, cnt in (
+            (t_keep, t_rel, "t_rel", "_t", self._TRI + (self._TRI_FLOORS if fl else ()), None if counts is None else counts[0]),
+            (q_keep, q_rel, "q_rel", "_q", self._QUAD + (self._QUAD_FLOORS if fl else ()), None if counts is None else counts[1]),
         ):
+            if not keep.shape[0]:  # no row of this kind: empty columns (views), no layout to build
+                setattr(g, rows_name, _EMPTY_ROWS)
+                setattr(g, rel_name, rel)
+                for name in names:
+                    setattr(g, name, getattr(self, name)[:0])
+                continue
+            if keep.shape[0] <= _SMALL_SUBSET:  # one ragged chunk, the rows in their order (rel is sorted):
+                # what _Rows gives (its stable argsort of a sorted rel is the identity), without sorting
+                cnt = np.bincount(rel, minlength=n) if cnt is None else cnt
+                nodes = np.flatnonzero(cnt)
+                rows = object.__new__(_Rows)
+                rows.perm, rows.chunks = None, [(0, keep.shape[0], nodes, cnt[nodes])]
+                setattr(g, rows_name, rows)
+                setattr(g, rel_name, rel)
+                for name in names:
+                    setattr(g, name, getattr(self, name).take(keep))
+                continue
             rows = _Rows(rel, n, _SMALL_SUBSET)
             setattr(g, rows_name, rows)
             setattr(g, rel_name, rel[rows.perm])
@@ -167,18 +218,21 @@ class BlockGeometry:
         Xf = X.reshape((-1, self.n, 2))
         K = Xf.shape[0]
         x0, y0 = np.ascontiguousarray(Xf[..., 0]), np.ascontiguousarray(Xf[..., 1])
-        best = np.full((K, self.n), np.inf)
+        best = None  # (K, n): the first chunk's minimum itself where it covers every node, else inf-filled
         bad = out_band = None
         if band is not None:
             b_lo, b_hi = (np.broadcast_to(np.asarray(b, dtype=np.float64), (self.n,)) for b in band)
         fresh = True  # no row reduced into ``best`` yet (min(inf, v) is v: the first chunk of all nodes assigns)
         with np.errstate(divide="ignore", invalid="ignore"):
             for quads, rows in ((False, self._t), (True, self._q)):
-                for r0, r1, nodes, d in rows.chunks:
+                firsts = self._first_chunks() if quads else None
+                for ci, (r0, r1, nodes, d) in enumerate(rows.chunks):
                     # small chunks take several candidates at once (fewer, larger numpy calls)
                     kb = max(1, _CHUNK // (r1 - r0))
                     whole = fresh and kb >= K and nodes.shape[0] == self.n  # nodes: sorted, distinct
                     fresh = False
+                    # no earlier chunk reduced into these nodes' ``best`` (still inf): assigned, not min-ed
+                    first = True if firsts is None else firsts[ci]
                     starts = None if isinstance(d, int) else np.cumsum(d) - d
                     sr = q_strict[r0:r1] if quads and q_strict is not None else None
                     bnd = None if band is None else (b_lo[nodes], b_hi[nodes])
@@ -187,13 +241,18 @@ class BlockGeometry:
                         # one candidate: 1-d rows (a (1, rows) operand against the (rows,) columns costs every
                         # ufunc numpy's general iterator instead of its plain loop)
                         at = (k0, nodes) if K == 1 else (slice(k0, k1), nodes)
-                        px, py = _chunk_xy(x0, y0, at, d)
+                        px, py = _chunk_xy(x0, y0, at, d, nodes.shape[0] == self.n)
                         cols, fl = self._chunk_cols(quads, px, r0, r1)
                         low, w, out = score_rows(quads, px, py, cols, fl, d, starts, sr, bnd)
-                        if whole:  # (nodes: sorted, the ragged chunk's too)
-                            best[:] = low
+                        if whole:  # (nodes: sorted, the ragged chunk's too; low: a fresh array)
+                            best = low.reshape(K, self.n)
                         else:
-                            best[at] = np.minimum(best[at], low)
+                            if best is None:
+                                best = np.full((K, self.n), np.inf)
+                            if first:
+                                best[at] = low
+                            else:
+                                best[at] = np.minimum(best[at], low)
                         if w is not None:
                             if bad is None:
                                 bad = np.zeros((K, self.n))
@@ -202,7 +261,28 @@ class BlockGeometry:
                             if out_band is None:
                                 out_band = np.zeros((K, self.n), bool)
                             out_band[at] |= out
+        if best is None:  # (no rows)
+            best = np.full((K, self.n), np.inf)
         return finish_scores(best, bad, out_band).reshape(lead + (self.n,))
+
+    def _first_chunks(self) -> list:
+        """Per chunk of quad rows: none of its nodes has a triangle row (the triangle rows' chunks come first
+        in :meth:`score`; each node's rows of one kind are in one chunk), so that its minimum is the nodes'
+        first.  Topology only: cached with the layout of a whole block, computed once per geometry otherwise."""
+        hit = self.__dict__.get("_firsts")
+        if hit is None:
+            key = None if self._key is None else ("geometry-first-chunks",) + self._key
+            hit = None if key is None else self._cache.get(key)
+            if hit is None:
+                if not self.t_rel.shape[0]:
+                    hit = [True] * len(self._q.chunks)
+                else:
+                    has = self._has_tris()
+                    hit = [not has[nodes].any() for _, _, nodes, _ in self._q.chunks]
+                if key is not None:
+                    self._cache[key] = hit
+            self._firsts = hit
+        return hit
 
     def _has_tris(self) -> np.ndarray:
         """Per node: it has a triangle row (topology only: computed once per geometry)."""
@@ -228,6 +308,8 @@ class BlockGeometry:
         instructions per pass without stage 5 395.3 M untiled, 400.5 M tiled)."""
         k = px.shape[0] if px.ndim == 2 else 1
         if k == 1:
+            if r0 == 0 and r1 == self.t_x1.shape[0]:  # every row: the columns themselves
+                return tuple(getattr(self, name) for name in names)
             return tuple(getattr(self, name)[r0:r1] for name in names)
         tiles = self.__dict__.setdefault("_tiles", {})
         out = []
@@ -245,6 +327,9 @@ class BlockGeometry:
         triangle rows tiled like ``px`` (:meth:`_cols`), quad rows as slices."""
         if not quads:
             return self._cols(px, r0, r1, *self._TRI), self._cols(px, r0, r1, *self._TRI_FLOORS) if self.floors else None
+        if r0 == 0 and r1 == self.q_x1.shape[0]:  # every row (a small geometry's one chunk): the columns themselves
+            return (tuple(getattr(self, name) for name in self._QUAD),
+                    tuple(getattr(self, name) for name in self._QUAD_FLOORS) if self.floors else None)
         cols = (self.q_x1[r0:r1], self.q_y1[r0:r1], self.q_x3[r0:r1], self.q_y3[r0:r1], self.q_ux[r0:r1],
                 self.q_uy[r0:r1], self.q_vx[r0:r1], self.q_vy[r0:r1], self.q_l12[r0:r1], self.q_l23[r0:r1],
                 self.q_ok2[r0:r1], self.q_cos2[r0:r1])  # _QUAD
@@ -265,28 +350,28 @@ class BlockGeometry:
         triangles, corners 0, 1 and 3 of its quads (corner 2 does not depend on it); the score's
         operations, NaN where one is NaN.  Stage 1's test at nodes of well-shaped input cells."""
         x0, y0 = np.asarray(X[:, 0], dtype=np.float64), np.asarray(X[:, 1], dtype=np.float64)
-        out = np.full(self.n, -np.inf)
+        out = None  # (n,): the first chunk's maximum itself where it covers every node, else -inf-filled
+        fresh = True
         with np.errstate(divide="ignore", invalid="ignore"):
-            for r0, r1, nodes, d in self._t.chunks:
-                px, py = np.repeat(x0[nodes], d), np.repeat(y0[nodes], d)
-                ux, uy, l12 = self.t_ux[r0:r1], self.t_uy[r0:r1], self.t_l12[r0:r1]
-                ex1, ey1 = self.t_x1[r0:r1] - px, self.t_y1[r0:r1] - py
-                fx2, fy2 = px - self.t_x2[r0:r1], py - self.t_y2[r0:r1]
-                l1, l2 = np.sqrt(ex1 * ex1 + ey1 * ey1), np.sqrt(fx2 * fx2 + fy2 * fy2)
-                v = np.maximum(np.maximum((ex1 * fx2 + ey1 * fy2) / (l1 * l2), (ux * ex1 + uy * ey1) / (l12 * l1)),
-                               (fx2 * ux + fy2 * uy) / (l2 * l12))
-                out[nodes] = np.maximum(out[nodes], _rowreduce(v, d, np.maximum))
-            for r0, r1, nodes, d in self._q.chunks:
-                px, py = np.repeat(x0[nodes], d), np.repeat(y0[nodes], d)
-                ux, uy, l12 = self.q_ux[r0:r1], self.q_uy[r0:r1], self.q_l12[r0:r1]
-                vx, vy, l23 = self.q_vx[r0:r1], self.q_vy[r0:r1], self.q_l23[r0:r1]
-                ex1, ey1 = self.q_x1[r0:r1] - px, self.q_y1[r0:r1] - py
-                ex3, ey3 = self.q_x3[r0:r1] - px, self.q_y3[r0:r1] - py
-                l1, l3 = np.sqrt(ex1 * ex1 + ey1 * ey1), np.sqrt(ex3 * ex3 + ey3 * ey3)
-                v = np.maximum(np.maximum(-((ex1 * ex3 + ey1 * ey3) / (l1 * l3)), (ux * ex1 + uy * ey1) / (l12 * l1)),
-                               -((ex3 * vx + ey3 * vy) / (l3 * l23)))
-                out[nodes] = np.maximum(out[nodes], _rowreduce(v, d, np.maximum))
-        return out
+            for quads, rows in ((False, self._t), (True, self._q)):
+                firsts = self._first_chunks() if quads else None
+                for ci, (r0, r1, nodes, d) in enumerate(rows.chunks):
+                    every = nodes.shape[0] == self.n  # (nodes: sorted, distinct)
+                    if every:
+                        px, py = np.repeat(x0, d), np.repeat(y0, d)
+                    else:
+                        px, py = np.repeat(x0[nodes], d), np.repeat(y0[nodes], d)
+                    v = _largest_rows(quads, px, py, self._chunk_cols(quads, px, r0, r1)[0])
+                    v = _rowreduce(v, d, np.maximum)
+                    if fresh and every:
+                        out = v
+                    else:
+                        if out is None:
+                            out = np.full(self.n, -np.inf)
+                        # max(-inf, v) is v: a chunk whose nodes no earlier chunk had assigns
+                        out[nodes] = v if firsts is None or firsts[ci] else np.maximum(out[nodes], v)
+                    fresh = False
+        return np.full(self.n, -np.inf) if out is None else out
 
     def area_range(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Smallest and largest signed area of each node's incident cells at positions ``X`` (..., n, 2)."""
@@ -309,13 +394,17 @@ class BlockGeometry:
         return lo.reshape(lead + (self.n,)), hi.reshape(lead + (self.n,))
 
 
-def _chunk_xy(x0: np.ndarray, y0: np.ndarray, at: tuple, d) -> tuple[np.ndarray, np.ndarray]:
+def _chunk_xy(x0: np.ndarray, y0: np.ndarray, at: tuple, d, every: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The moving corner of a chunk's rows: the candidates ``at`` (``(k, nodes)``: one candidate, 1-d rows;
     ``(slice, nodes)``: (candidates, rows)) of ``x0``, ``y0`` (candidates, nodes), each node's repeated for
-    its ``d`` rows."""
+    its ``d`` rows.  ``every``: ``nodes`` is every node (``arange``), nothing to gather."""
     if isinstance(at[0], slice):
+        if every:
+            return np.repeat(x0[at[0]], d, axis=1), np.repeat(y0[at[0]], d, axis=1)
         return np.repeat(x0[at], d, axis=1), np.repeat(y0[at], d, axis=1)
     k, nodes = at
+    if every:
+        return x0[k].repeat(d), y0[k].repeat(d)
     return x0[k].take(nodes).repeat(d), y0[k].take(nodes).repeat(d)
 
 

@@ -64,7 +64,7 @@ def laplacian_target(points: np.ndarray, topo: Topology, blk: Block, subset: np.
     return out
 
 
-def angle_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
+def angle_target(points: np.ndarray, topo: Topology, blk: Block, cur: np.ndarray | None = None) -> np.ndarray:
     """Zhou & Shimada's angle-based position of each block node, (n, 2).
 
     For every spoke (ring node j, with a and b the nodes beside the spoke when
@@ -72,14 +72,16 @@ def angle_target(points: np.ndarray, topo: Topology, blk: Block) -> np.ndarray:
     splits the counter-clockwise angle a-j-b in the ratio ``frac : 1 - frac``,
     at its current distance from j; the result is the mean over all spokes.
     Equal splits use the exact bisector ``rot90(u_a - u_b)`` (no trigonometry);
-    only unequal splits (quad beside triangle) use atan2/cos/sin.
+    only unequal splits (quad beside triangle) use atan2/cos/sin.  ``cur``: the block nodes' current
+    positions (``points`` at them), if the caller has them (numpy kernels: one gather fewer).
     """
     if _fast.active(topo):
         return _fastcalls.angle_target(points, topo, blk)
     a0 = blk.nodes.start
     sl = blk.spokes
     n = blk.size
-    cur = np.take(points, intp(topo, "free_nodes")[blk.nodes], axis=0)
+    if cur is None:
+        cur = np.take(points, intp(topo, "free_nodes")[blk.nodes], axis=0)
     out = np.empty((n, 2))
     # node-aligned chunks of about _CHUNK spokes: the temporaries stay in cache, and
     # every node's spokes are summed in the same order as by one bincount
