@@ -18,6 +18,11 @@ from ._nodekinds import _per_node
 
 __all__ = ["chooser"]
 
+#: Most nodes of well-shaped input cells whose stage 1 test shares stage 2's geometry and scores (more: the
+#: test's own, where scoring four candidates at each costs more than the calls it saves; about a quarter
+#: of a numpy call's overhead a row)
+_JOINT_TEST = 256
+
 
 def chooser(topo, *, fast, floors, s_in, m_in, accept_above, accept_above_quad, nearest, opt_iterations, opt_below,
             opt_below_quad):
@@ -47,16 +52,31 @@ def chooser(topo, *, fast, floors, s_in, m_in, accept_above, accept_above_quad, 
             new, best, refused, lazy = _fastcalls.angle_choose(pts, topo, blk, good, floors, keep, nearest, certify,
                                                                cap=m_in)
             return new, best, int(refused.sum()), lazy
-        target = angle_target(pts, topo, blk)
+        target = angle_target(pts, topo, blk, cur)  # (cur: run_blocks' gather of the same positions)
         s_a = geom.score(target)
         refused = int((s_a <= INVALID + 0.5).sum())
         # stage 1: where the angle position is good enough, take it (even when staying scores higher;
         # nodes whose input cells were all well shaped only when it is no worse than staying)
         new, best = target, s_a
         take = s_a >= good
+        pre = None  # (nodes, their geometry, Laplacian and scores of the four other candidates) if computed
         if keep is not None:
             k = np.flatnonzero(keep & take)
-            if k.size:
+            if 0 < k.size <= _JOINT_TEST:
+                # few nodes to test: one geometry, Laplacian and score of the other four candidates for them
+                # and the nodes that go to stage 2 anyway (the test needs the score at C, one of the four;
+                # a node's numbers are the same on any subset): one restrict and one score call fewer
+                u = np.flatnonzero(keep | ~take)  # (k and the others, sorted)
+                su = geom if u.size == blk.size else geom.restrict(u)
+                t, c = target[u], cur[u]
+                lap = laplacian_target(pts, topo, blk, subset=u)
+                extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c), c])
+                pre = u, su, lap, extra, su.score(extra)
+                ik = np.flatnonzero(take[u])  # (k in u)
+                # no worse than staying, nor its largest moving corner opened beyond staying's (or 90 deg)
+                m_a = su.largest(t)[ik]
+                take[k] = (s_a[k] >= pre[4][3, ik]) & ((m_a <= su.largest(c)[ik]) | (m_a <= 0.0))
+            elif k.size:
                 g = geom.restrict(k)
                 # no worse than staying, nor its largest moving corner opened beyond staying's (or 90 deg)
                 m_a = g.largest(target[k])
@@ -64,11 +84,20 @@ def chooser(topo, *, fast, floors, s_in, m_in, accept_above, accept_above_quad, 
         rest = np.flatnonzero(~take)
         if rest.size:
             # stage 2: the others choose among all five candidates (the first best wins)
-            lap = laplacian_target(pts, topo, blk, subset=rest)
             t, c = target[rest], cur[rest]
-            sub = geom if rest.size == blk.size else geom.restrict(rest)
-            extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c), c])
-            s = np.concatenate([s_a[None, rest], sub.score(extra)])
+            if pre is None:
+                lap = laplacian_target(pts, topo, blk, subset=rest)
+                sub = geom if rest.size == blk.size else geom.restrict(rest)
+                extra = np.stack([lap, 0.5 * (t + lap), 0.5 * (t + c), c])
+                s4 = sub.score(extra)
+            else:  # computed with stage 1's test, on more nodes
+                u, su, lap, extra, s4 = pre
+                ir = np.searchsorted(u, rest)
+                whole = ir.size == u.size
+                sub = su if whole else su.restrict(ir) if m_in != np.inf else None  # (capped_argmax's)
+                if not whole:
+                    lap, extra, s4 = lap[ir], extra[:, ir], s4[:, ir]
+            s = np.concatenate([s_a[None, rest], s4])
             cands = np.concatenate([t[None], extra])
             # (keep_max: at the nodes of well-shaped input cells, only the candidates within its cap)
             k = np.argmax(s, 0) if m_in == np.inf or keep is None else capped_argmax(sub, keep[rest], cands, s, m_in)
@@ -89,7 +118,7 @@ def chooser(topo, *, fast, floors, s_in, m_in, accept_above, accept_above_quad, 
             # corners block each other
             stuck = np.flatnonzero((s[:4] <= INVALID + 0.5).all(axis=0) & (s[4] > INVALID + 0.5))
             if stuck.size:
-                g3 = sub.restrict(stuck)
+                g3 = sub.restrict(stuck) if pre is None else su.restrict(ir[stuck])
                 x, _ = first_valid(g3, c[stuck], lap[stuck])
                 new[rest[stuck]], best[rest[stuck]] = x, g3.score(x)
         return new, best, refused, None

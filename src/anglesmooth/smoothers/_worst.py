@@ -46,8 +46,11 @@ def worst_optimizer(topo, *, fast, floors, any_keep, s_in, m_in, limits, opt_fra
                 if v[n_opt - 1] == v[n_opt]:  # a tie where argpartition cuts: its pick depends on every score
                     z = np.flatnonzero(lazy)
                     best[z] = geom.restrict(z).score(new[z])
-            worst = np.argpartition(best, n_opt - 1)[:n_opt] if n_opt < blk.size else idx
-            worst = np.sort(worst[best[worst] < below[worst]])
+            if not (best < below).any():  # none below its threshold: none of the n_opt worst is (no partition)
+                worst = idx[:0]
+            else:
+                worst = np.argpartition(best, n_opt - 1)[:n_opt] if n_opt < blk.size else idx
+                worst = np.sort(worst[best[worst] < below[worst]])
         if n_opt and worst.size:
             strict = None
             if strict_quads and any_keep:
