@@ -237,8 +237,8 @@ def _tri_core(px, py, cols):
     ey1 = y1 - py
     fx2 = px - x2
     fy2 = py - y2
-    l1 = np.sqrt(ex1 * ex1 + ey1 * ey1)
-    l2 = np.sqrt(fx2 * fx2 + fy2 * fy2)
+    l1 = _norm(ex1, ey1)
+    l2 = _norm(fx2, fy2)
     vals = (ex1 * fx2 + ey1 * fy2) / (l1 * l2)
     np.minimum(vals, (ux * ex1 + uy * ey1) / (l12 * l1), out=vals)
     np.minimum(vals, (fx2 * ux + fy2 * uy) / (l2 * l12), out=vals)
@@ -272,8 +272,8 @@ def _quad_core(px, py, cols):
     ey1 = y1 - py
     ex3 = x3 - px
     ey3 = y3 - py
-    l1 = np.sqrt(ex1 * ex1 + ey1 * ey1)
-    l3 = np.sqrt(ex3 * ex3 + ey3 * ey3)
+    l1 = _norm(ex1, ey1)
+    l3 = _norm(ex3, ey3)
     cm = np.abs((ex1 * ex3 + ey1 * ey3) / (l1 * l3))
     np.maximum(cm, np.abs((ux * ex1 + uy * ey1) / (l12 * l1)), out=cm)
     c3 = np.abs((ex3 * vx + ey3 * vy) / (l3 * l23))
